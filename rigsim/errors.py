@@ -1,0 +1,65 @@
+"""Errors that reach users as one clear line, never as a deep traceback.
+
+Every error names *where* (file and field when there is one), *what* was wrong
+and *what is allowed*.  The CLI prints ``str(error)`` and exits with status 2.
+"""
+
+from __future__ import annotations
+
+import difflib
+from collections.abc import Iterable
+from pathlib import Path
+
+
+class RigsimError(Exception):
+    """Base class of all errors rigsim raises on purpose."""
+
+
+class ConfigError(RigsimError, ValueError):
+    """Invalid user input: a file, a field, a value or a name.
+
+    Parameters
+    ----------
+    message
+        What is wrong, e.g. ``"must be >= 0, got -1"``.
+    file
+        The file the value came from, if any.
+    field
+        Dotted path of the field, e.g. ``"water.chl_mg_per_m3"``.
+    allowed
+        A short description of the allowed values or range.
+    """
+
+    def __init__(self, message: str, *, file: str | Path | None = None,
+                 field: str | None = None, allowed: str | None = None):
+        self.message = message
+        self.file = str(file) if file is not None else None
+        self.field = field
+        self.allowed = allowed
+        where = ""
+        if self.file and self.field:
+            where = f"{self.file}: {self.field}: "
+        elif self.file:
+            where = f"{self.file}: "
+        elif self.field:
+            where = f"{self.field}: "
+        tail = f" (allowed: {allowed})" if allowed else ""
+        super().__init__(f"{where}{message}{tail}")
+
+
+class SpectrumRangeError(ConfigError):
+    """A spectrum or table does not cover the wavelengths asked for."""
+
+
+class DataError(RigsimError):
+    """A data file shipped with rigsim is missing or malformed."""
+
+
+def unknown_name_error(kind: str, name: str, known: Iterable[str], *,
+                       file: str | Path | None = None, field: str | None = None) -> ConfigError:
+    """Build a ConfigError for an unknown name, suggesting the nearest known ones."""
+    known = sorted(known)
+    close = difflib.get_close_matches(name, known, n=3, cutoff=0.5)
+    hint = f"; did you mean {', '.join(repr(c) for c in close)}?" if close else ""
+    return ConfigError(f"unknown {kind} {name!r}{hint}", file=file, field=field,
+                       allowed=", ".join(known))

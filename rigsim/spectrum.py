@@ -1,0 +1,102 @@
+"""Wavelength grids and interpolation of tabulated spectra (wavelengths in nm).
+
+Tabulated spectra are never extrapolated silently: asking for a wavelength a
+table does not cover raises :class:`~rigsim.errors.SpectrumRangeError` naming
+the table and its range.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rigsim.errors import ConfigError, SpectrumRangeError
+
+#: Default rendering bands: 400–700 nm every 10 nm (band centres, nm).
+DEFAULT_WAVELENGTHS_NM = np.arange(400.0, 701.0, 10.0)
+
+#: The range Mitsuba samples wavelengths from in spectral mode (nm); spectra given
+#: to Mitsuba must cover it (a piecewise spectrum is zero outside its range).
+MITSUBA_WAVELENGTH_RANGE_NM = (360.0, 830.0)
+
+
+def as_wavelengths(wavelength_nm) -> np.ndarray:
+    """Return wavelengths (nm) as a float array, checking they are finite and positive."""
+    wl = np.asarray(wavelength_nm, dtype=float)
+    if not np.all(np.isfinite(wl)) or np.any(wl <= 0):
+        raise ConfigError("wavelengths must be finite and > 0 nm", field="wavelength_nm")
+    return wl
+
+
+def parse_wavelength_range(text: str) -> np.ndarray:
+    """Parse ``"400:700:10"`` (start:stop:step, stop included) or ``"450,550"`` into nm.
+
+    Examples
+    --------
+    >>> parse_wavelength_range("400:440:20").tolist()
+    [400.0, 420.0, 440.0]
+    >>> parse_wavelength_range("532").tolist()
+    [532.0]
+    """
+    text = text.strip()
+    try:
+        if ":" in text:
+            parts = [float(p) for p in text.split(":")]
+            if len(parts) != 3 or parts[2] <= 0 or parts[1] < parts[0]:
+                raise ValueError
+            start, stop, step = parts
+            n = int(np.floor((stop - start) / step + 1e-9)) + 1
+            wl = start + step * np.arange(n)
+        else:
+            wl = np.array([float(p) for p in text.split(",") if p.strip()])
+            if wl.size == 0:
+                raise ValueError
+    except ValueError:
+        raise ConfigError(f"cannot read wavelengths {text!r}", field="--wavelengths",
+                          allowed="START:STOP:STEP in nm (e.g. 400:700:10) or a comma list") from None
+    return as_wavelengths(wl)
+
+
+def interp_table(wavelength_nm, table_nm, table_values, *, name: str) -> np.ndarray:
+    """Linear interpolation of a tabulated spectrum, exact at tabulated wavelengths.
+
+    Parameters
+    ----------
+    wavelength_nm
+        Wavelengths to evaluate at (nm), any shape.
+    table_nm, table_values
+        The table (strictly increasing wavelengths, nm).
+    name
+        Name of the table for the error message.
+
+    Raises
+    ------
+    SpectrumRangeError
+        If any wavelength is outside ``[table_nm[0], table_nm[-1]]``.
+    """
+    wl = as_wavelengths(wavelength_nm)
+    lo, hi = float(table_nm[0]), float(table_nm[-1])
+    if wl.size and (wl.min() < lo - 1e-9 or wl.max() > hi + 1e-9):
+        bad = wl[(wl < lo - 1e-9) | (wl > hi + 1e-9)]
+        raise SpectrumRangeError(
+            f"{name} covers {lo:g}–{hi:g} nm; asked for {bad.min():g}–{bad.max():g} nm",
+            field="wavelength_nm", allowed=f"{lo:g}–{hi:g} nm")
+    return np.interp(wl, table_nm, table_values)
+
+
+def extend_to_range(wavelength_nm: np.ndarray, values: np.ndarray,
+                    lo_nm: float, hi_nm: float) -> tuple[np.ndarray, np.ndarray]:
+    """Pad a sampled spectrum to ``[lo_nm, hi_nm]`` by holding its end values.
+
+    Used only where a consumer (Mitsuba) needs a spectrum defined over its whole
+    sampling range although the result is only ever read inside the original
+    range (the film has no response outside it).
+    """
+    wl = np.asarray(wavelength_nm, float)
+    v = np.asarray(values, float)
+    if wl[0] > lo_nm:
+        wl = np.concatenate([[lo_nm], wl])
+        v = np.concatenate([[v[0]], v])
+    if wl[-1] < hi_nm:
+        wl = np.concatenate([wl, [hi_nm]])
+        v = np.concatenate([v, [v[-1]]])
+    return wl, v
