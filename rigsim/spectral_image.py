@@ -1,0 +1,142 @@
+"""SpectralImage: spectral radiance at the entrance pupil, with ground truth.
+
+The one interface between the image makers (:mod:`rigsim.render`,
+:mod:`rigsim.preview`) and the image users (:mod:`rigsim.sensor`,
+:mod:`rigsim.metrics`).  One SpectralImage serves every sensor.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from rigsim.errors import ConfigError
+
+#: Names of the optional ground-truth layers and their meaning.
+LAYER_DOCS = {
+    "range_m": "(rows, cols) distance from the entrance pupil to the first surface hit, m (inf: none)",
+    "clear": "(rows, cols, bands) radiance of the same view and lighting without water, W/(m² sr nm)",
+    "object_id": "(rows, cols) int32 id of the first surface hit (0: none; see meta['object_ids'])",
+    "direct": "(rows, cols, bands) radiance of light that reached the camera without scattering in water",
+    "backscatter": "(rows, cols, bands) radiance scattered by the water into the camera without "
+                   "reaching a surface (the veiling light)",
+}
+
+
+@dataclass(frozen=True, eq=False)
+class SpectralImage:
+    """Spectral radiance image with ground-truth layers.
+
+    Attributes
+    ----------
+    radiance
+        Array (rows, cols, bands) of spectral radiance in W·m⁻²·sr⁻¹·nm⁻¹.
+    wavelength_nm
+        Band centres (nm), shape (bands,).
+    bandwidth_nm
+        Band widths (nm), shape (bands,).
+    layers
+        Ground truth, keys from :data:`LAYER_DOCS`.
+    meta
+        JSON-serialisable description of what made the image (scene, water,
+        seed, spp, engine, wall time ...).
+    """
+
+    radiance: np.ndarray
+    wavelength_nm: np.ndarray
+    bandwidth_nm: np.ndarray
+    layers: dict[str, np.ndarray] = field(default_factory=dict)
+    meta: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        r = np.asarray(self.radiance)
+        if r.ndim != 3:
+            raise ValueError(f"radiance must be (rows, cols, bands), got shape {r.shape}")
+        if r.shape[2] != len(self.wavelength_nm) or len(self.bandwidth_nm) != len(self.wavelength_nm):
+            raise ValueError("radiance bands, wavelength_nm and bandwidth_nm disagree")
+        for k in self.layers:
+            if k not in LAYER_DOCS:
+                raise ValueError(f"unknown layer {k!r}; known: {', '.join(LAYER_DOCS)}")
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        """(rows, cols)."""
+        return self.radiance.shape[:2]
+
+    @property
+    def n_bands(self) -> int:
+        return self.radiance.shape[2]
+
+    def save(self, directory: str | Path) -> Path:
+        """Write ``spectral.npz`` (radiance + layers) and ``meta.json`` into ``directory`` atomically."""
+        d = Path(directory)
+        d.mkdir(parents=True, exist_ok=True)
+        arrays = {"radiance": np.asarray(self.radiance, np.float32),
+                  "wavelength_nm": np.asarray(self.wavelength_nm, float),
+                  "bandwidth_nm": np.asarray(self.bandwidth_nm, float)}
+        for k, v in self.layers.items():
+            arrays[f"layer_{k}"] = np.asarray(v)
+        atomic_write_npz(d / "spectral.npz", arrays)
+        atomic_write_text(d / "meta.json", json.dumps(self.meta, indent=2, default=_json_default))
+        return d
+
+    @classmethod
+    def load(cls, directory: str | Path) -> "SpectralImage":
+        """Read a SpectralImage written by :meth:`save`."""
+        d = Path(directory)
+        f = d / "spectral.npz"
+        if not f.is_file():
+            raise ConfigError("no spectral.npz here (not a render directory)", file=d,
+                              allowed="a directory written by `rigsim render`")
+        with np.load(f) as z:
+            layers = {k[6:]: z[k] for k in z.files if k.startswith("layer_")}
+            radiance, wl, bw = z["radiance"], z["wavelength_nm"], z["bandwidth_nm"]
+        meta = {}
+        if (d / "meta.json").is_file():
+            meta = json.loads((d / "meta.json").read_text())
+        return cls(radiance=radiance, wavelength_nm=wl, bandwidth_nm=bw, layers=layers, meta=meta)
+
+
+def _json_default(o):
+    if isinstance(o, np.ndarray):
+        return o.tolist()
+    if isinstance(o, (np.floating, np.integer)):
+        return o.item()
+    if isinstance(o, Path):
+        return str(o)
+    raise TypeError(f"not JSON serialisable: {type(o)}")
+
+
+def atomic_write_bytes(path: str | Path, data: bytes) -> None:
+    """Write a file atomically (temporary file in the same folder, then rename)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def atomic_write_text(path: str | Path, text: str) -> None:
+    """Write a text file atomically (UTF-8)."""
+    atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def atomic_write_npz(path: str | Path, arrays: dict[str, np.ndarray]) -> None:
+    """Write a compressed ``.npz`` atomically."""
+    import io
+
+    buf = io.BytesIO()
+    np.savez_compressed(buf, **arrays)
+    atomic_write_bytes(path, buf.getvalue())
