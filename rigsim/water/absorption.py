@@ -36,6 +36,8 @@ __all__ = [
     "absorption_pure_water_Buiteveld1994",
     "PURE_WATER_ABSORPTION_METHODS",
     "absorption_pure_water",
+    "pure_water_absorption_range_nm",
+    "phytoplankton_absorption_range_nm",
     "absorption_detritus_Bricaud1998",
     "absorption_cdom_Bricaud1981",
     "absorption_phytoplankton_Bricaud1995",
@@ -47,6 +49,15 @@ __all__ = [
 DETRITUS_EXPONENT_WRITEUP = 0.702
 #: Exponent used by the original code (pbrt-v2/uwSim), equal to Bricaud et al. (1998).
 DETRITUS_EXPONENT_ORIGINAL_CODE = 0.724
+
+
+#: Data file behind each pure-water table.
+PURE_WATER_ABSORPTION_FILES = {
+    "smith-baker-1981": "water/pure_water_absorption_smith_baker_1981.csv",
+    "pope-fry-1997": "water/pure_water_absorption_pope_fry_1997.csv",
+    "buiteveld-1994": "water/pure_water_absorption_buiteveld_1994.csv",
+}
+
 
 
 def _check_nonnegative(value: float, field: str) -> float:
@@ -67,21 +78,21 @@ def absorption_pure_water_SmithBaker1981(wavelength_nm) -> np.ndarray:
     >>> float(absorption_pure_water_SmithBaker1981(440.0))
     0.0145
     """
-    t = load_table("water/pure_water_absorption_smith_baker_1981.csv")
+    t = load_table(PURE_WATER_ABSORPTION_FILES["smith-baker-1981"])
     return interp_table(wavelength_nm, t["wavelength_nm"], t["a_w_per_m"],
                         name="Smith & Baker 1981 pure-water absorption")
 
 
 def absorption_pure_water_PopeFry1997(wavelength_nm) -> np.ndarray:
     """Pure water absorption of Pope & Fry (1997) [PF97], 1/m; 380–727.5 nm every 2.5 nm."""
-    t = load_table("water/pure_water_absorption_pope_fry_1997.csv")
+    t = load_table(PURE_WATER_ABSORPTION_FILES["pope-fry-1997"])
     return interp_table(wavelength_nm, t["wavelength_nm"], t["a_w_per_m"],
                         name="Pope & Fry 1997 pure-water absorption")
 
 
 def absorption_pure_water_Buiteveld1994(wavelength_nm) -> np.ndarray:
     """Pure water absorption of Buiteveld et al. (1994) [Bu94], 1/m; 300–800 nm every 2 nm."""
-    t = load_table("water/pure_water_absorption_buiteveld_1994.csv")
+    t = load_table(PURE_WATER_ABSORPTION_FILES["buiteveld-1994"])
     return interp_table(wavelength_nm, t["wavelength_nm"], t["a_w_per_m"],
                         name="Buiteveld 1994 pure-water absorption")
 
@@ -92,6 +103,21 @@ PURE_WATER_ABSORPTION_METHODS = {
     "pope-fry-1997": absorption_pure_water_PopeFry1997,
     "buiteveld-1994": absorption_pure_water_Buiteveld1994,
 }
+
+
+def pure_water_absorption_range_nm(method: str = "smith-baker-1981") -> tuple[float, float]:
+    """Wavelength range (nm) covered by a pure-water absorption table."""
+    if method not in PURE_WATER_ABSORPTION_FILES:
+        raise unknown_name_error("pure-water absorption table", method,
+                                 PURE_WATER_ABSORPTION_METHODS, field="pure_water")
+    wl = load_table(PURE_WATER_ABSORPTION_FILES[method])["wavelength_nm"]
+    return float(wl[0]), float(wl[-1])
+
+
+def phytoplankton_absorption_range_nm() -> tuple[float, float]:
+    """Wavelength range (nm) of the original code's phytoplankton absorption shape."""
+    wl = load_table("water/reference_implementation_uwsim_pbrt_tables.csv")["wavelength_nm"]
+    return float(wl[0]), float(wl[-1])
 
 
 def absorption_pure_water(wavelength_nm, method: str = "smith-baker-1981") -> np.ndarray:
