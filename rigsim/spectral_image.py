@@ -24,6 +24,8 @@ LAYER_DOCS = {
     "direct": "(rows, cols, bands) radiance of light that reached the camera without scattering in water",
     "backscatter": "(rows, cols, bands) radiance scattered by the water into the camera without "
                    "reaching a surface (the veiling light)",
+    "flash": "(rows, cols, bands) radiance integrated over one flash of the strobes, J/(m² sr nm); "
+             "``radiance`` then holds only continuous light (ambient, video lights)",
 }
 
 
@@ -70,6 +72,18 @@ class SpectralImage:
     @property
     def n_bands(self) -> int:
         return self.radiance.shape[2]
+
+    def radiant_exposure(self, exposure_s: float) -> np.ndarray:
+        """Spectral radiance integrated over an exposure, J·m⁻²·sr⁻¹·nm⁻¹.
+
+        Continuous light (``radiance``) times the exposure time, plus one flash
+        (layer ``flash``) if the scene has strobes — a strobe's flash is shorter
+        than any shutter time, so its contribution does not depend on the shutter.
+        """
+        h = np.asarray(self.radiance, float) * float(exposure_s)
+        if "flash" in self.layers:
+            h = h + np.asarray(self.layers["flash"], float)
+        return h
 
     def save(self, directory: str | Path) -> Path:
         """Write ``spectral.npz`` (radiance + layers) and ``meta.json`` into ``directory`` atomically."""
