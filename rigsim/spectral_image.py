@@ -26,7 +26,13 @@ LAYER_DOCS = {
                    "reaching a surface (the veiling light)",
     "flash": "(rows, cols, bands) radiance integrated over one flash of the strobes, J/(m² sr nm); "
              "``radiance`` then holds only continuous light (ambient, video lights)",
+    "flash_clear": "``clear`` for the flash, J/(m² sr nm)",
+    "flash_direct": "``direct`` for the flash, J/(m² sr nm)",
+    "flash_backscatter": "``backscatter`` for the flash, J/(m² sr nm)",
 }
+
+#: Spectral layers that have a continuous (W) part and a flash (J) part.
+SPECTRAL_LAYERS = ("clear", "direct", "backscatter")
 
 
 @dataclass(frozen=True, eq=False)
@@ -73,16 +79,25 @@ class SpectralImage:
     def n_bands(self) -> int:
         return self.radiance.shape[2]
 
-    def radiant_exposure(self, exposure_s: float) -> np.ndarray:
+    def radiant_exposure(self, exposure_s: float, layer: str | None = None) -> np.ndarray:
         """Spectral radiance integrated over an exposure, J·m⁻²·sr⁻¹·nm⁻¹.
 
-        Continuous light (``radiance``) times the exposure time, plus one flash
-        (layer ``flash``) if the scene has strobes — a strobe's flash is shorter
-        than any shutter time, so its contribution does not depend on the shutter.
+        Continuous light (``radiance``, or the continuous part of a spectral ground-
+        truth ``layer`` such as ``"clear"``) times the exposure time, plus one flash
+        (layer ``flash`` / ``flash_<layer>``) if the scene has strobes — a strobe's
+        flash is shorter than any shutter time, so it does not scale with the shutter.
         """
-        h = np.asarray(self.radiance, float) * float(exposure_s)
-        if "flash" in self.layers:
-            h = h + np.asarray(self.layers["flash"], float)
+        if layer is None:
+            cont, flash = np.asarray(self.radiance, float), self.layers.get("flash")
+        else:
+            if layer not in SPECTRAL_LAYERS:
+                raise ValueError(f"{layer!r} is not a spectral layer ({', '.join(SPECTRAL_LAYERS)})")
+            cont, flash = self.layers.get(layer), self.layers.get(f"flash_{layer}")
+            if cont is None and flash is None:
+                raise KeyError(f"this image has no {layer!r} layer")
+        h = np.zeros(self.radiance.shape) if cont is None else np.asarray(cont, float) * float(exposure_s)
+        if flash is not None:
+            h = h + np.asarray(flash, float)
         return h
 
     def save(self, directory: str | Path) -> Path:
