@@ -1,0 +1,255 @@
+"""Water descriptions: a preset name, constituents, or explicit IOPs (TOML).
+
+A water TOML file has one ``[water]`` table, either by constituents::
+
+    [water]
+    name = "my bay"
+    preset = "coastal"            # optional: start from a preset, override below
+    chl_mg_per_m3 = 2.0           # alias chlorophyllConc
+    cdom_a440_per_m = 0.2         # alias domConc
+    small_particles_ppm = 0.1     # alias smallPartConc
+    large_particles_ppm = 0.3     # alias largePartConc
+    pure_water = "pope-fry-1997"  # smith-baker-1981 (default) | pope-fry-1997 | buiteveld-1994
+    detritus_exponent = 0.724     # 0.702 write-up (default) | 0.724 original code
+    phytoplankton = true          # add the original code's a_ph(440) = 0.0378 chl^0.627
+
+or by explicit inherent optical properties::
+
+    [water]
+    a_per_m = 0.1                 # a number (all wavelengths) or a CSV of wavelength_nm,value
+    b_per_m = "b.csv"
+    phase = "ff:0.0183"           # kopelevich | petzold-average | rayleigh | hg:G | ff:BB | a CSV of angle_deg,value
+    wavelength_nm = 532           # optional: pose the problem at these wavelengths only
+
+Relative CSV paths resolve against the TOML file's folder.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rigsim.config.tomlfile import check_keys, get_number, read_toml
+from rigsim.data import read_csv_table
+from rigsim.errors import ConfigError, RigsimError
+from rigsim.water.model import ConstituentWater, Spectrum1D, TabulatedWater, Water
+from rigsim.water.phase import (
+    FournierForand,
+    HenyeyGreenstein,
+    MixturePhase,
+    PhaseFunction,
+    RayleighWater,
+    kopelevich_large_particle,
+    kopelevich_small_particle,
+    petzold_average_particle,
+    tabulated_from_csv,
+)
+from rigsim.water.presets import preset
+from rigsim.water.scattering import scattering_pure_water
+
+__all__ = ["load_water", "water_from_table", "phase_from_spec", "CONSTITUENT_ALIASES", "PHASE_SPECS"]
+
+#: Canonical constituent keys and the original code's names accepted as aliases.
+CONSTITUENT_ALIASES = {
+    "chlorophyllConc": "chl_mg_per_m3",
+    "domConc": "cdom_a440_per_m",
+    "smallPartConc": "small_particles_ppm",
+    "largePartConc": "large_particles_ppm",
+}
+_CONSTITUENT_KEYS = ("chl_mg_per_m3", "cdom_a440_per_m", "small_particles_ppm", "large_particles_ppm")
+_MODEL_KEYS = ("pure_water", "detritus_exponent", "phytoplankton", "pure_water_scattering")
+_IOP_KEYS = ("a_per_m", "b_per_m", "phase", "wavelength_nm")
+
+#: The phase-function names accepted in ``phase = ...`` (besides a CSV file).
+PHASE_SPECS = ("kopelevich", "kopelevich:NS:NL", "petzold-average", "rayleigh", "hg:G", "ff:BB")
+
+
+def _kopelevich_for_iop(b: Spectrum1D, small_ppm: float, large_ppm: float) -> MixturePhase:
+    """Kopelevich mixture for a water whose b(λ) is given: the pure-water share is
+    b_w(λ)/b(λ); the rest is split between small and large particles in the ratio of
+    their scattering for the given volume concentrations."""
+    s, l = kopelevich_small_particle(), kopelevich_large_particle()
+
+    def weights(wl):
+        bw = scattering_pure_water(wl)
+        btot = np.maximum(b(wl), bw)
+        bs = small_ppm * s.norm * (550.0 / wl) ** 1.7
+        bl = large_ppm * l.norm * (550.0 / wl) ** 0.3
+        part = 1.0 - bw / btot
+        tot = bs + bl
+        return np.stack([bw / btot, part * bs / tot, part * bl / tot], axis=-1)
+
+    return MixturePhase([RayleighWater(), s, l], weights, name="kopelevich")
+
+
+def phase_from_spec(spec: str, *, b: Spectrum1D, file=None, base_dir: Path | None = None) -> PhaseFunction:
+    """A phase function from its name in a water file (see :data:`PHASE_SPECS`)."""
+    field = "water.phase"
+    if not isinstance(spec, str) or not spec:
+        raise ConfigError(f"must be a string, got {spec!r}", file=file, field=field, allowed=", ".join(PHASE_SPECS))
+    low = spec.lower()
+    try:
+        if low == "kopelevich":
+            return _kopelevich_for_iop(b, 1.0, 1.0)
+        if low.startswith("kopelevich:"):
+            _, ns, nl = low.split(":")
+            ns_v, nl_v = float(ns), float(nl)
+            if ns_v < 0 or nl_v < 0 or ns_v + nl_v <= 0:
+                raise ValueError
+            return _kopelevich_for_iop(b, ns_v, nl_v)
+        if low in ("petzold-average", "petzold"):
+            return petzold_average_particle()
+        if low == "rayleigh":
+            return RayleighWater()
+        if low.startswith("hg:"):
+            return HenyeyGreenstein(float(low[3:]))
+        if low.startswith("ff:"):
+            return FournierForand.from_backscatter_fraction(float(low[3:]))
+    except ConfigError as exc:
+        raise ConfigError(exc.message, file=file, field=field, allowed=exc.allowed) from None
+    except ValueError:
+        raise ConfigError(f"cannot read phase {spec!r}", file=file, field=field,
+                          allowed=", ".join(PHASE_SPECS) + ", or a CSV of angle_deg,value") from None
+    path = Path(spec)
+    if base_dir is not None and not path.is_absolute():
+        path = base_dir / path
+    if path.suffix.lower() == ".csv" or path.exists():
+        if not path.is_file():
+            raise ConfigError(f"phase table {path} not found", file=file, field=field)
+        return tabulated_from_csv(path)
+    raise ConfigError(f"unknown phase function {spec!r}", file=file, field=field,
+                      allowed=", ".join(PHASE_SPECS) + ", or a CSV of angle_deg,value")
+
+
+def _spectrum_value(v: Any, key: str, *, file, base_dir: Path | None) -> Spectrum1D:
+    field = f"water.{key}"
+    if isinstance(v, (int, float)) and not isinstance(v, bool):
+        if not np.isfinite(v) or v < 0:
+            raise ConfigError(f"must be >= 0, got {v!r}", file=file, field=field, allowed=">= 0 1/m")
+        return Spectrum1D.constant(float(v), label=field)
+    if isinstance(v, str):
+        path = Path(v)
+        if base_dir is not None and not path.is_absolute():
+            path = base_dir / path
+        if not path.is_file():
+            raise ConfigError(f"CSV file {path} not found", file=file, field=field)
+        try:
+            t = read_csv_table(path)
+        except RigsimError as exc:
+            raise ConfigError(str(exc), file=file, field=field) from None
+        names = list(t.columns)
+        if len(names) < 2 or names[0] != "wavelength_nm":
+            raise ConfigError(f"{path} needs columns wavelength_nm,value", file=file, field=field)
+        wl, vals = t[names[0]], t[names[1]]
+        if wl.dtype.kind != "f" or vals.dtype.kind != "f" or np.any(np.diff(wl) <= 0):
+            raise ConfigError(f"{path}: wavelengths must be increasing numbers", file=file, field=field)
+        if np.any(~np.isfinite(vals)) or np.any(vals < 0):
+            raise ConfigError(f"{path}: values must be finite and >= 0", file=file, field=field,
+                              allowed=">= 0 1/m")
+        return Spectrum1D(values=vals, wavelength_nm=wl, label=f"{path} ({key})")
+    raise ConfigError(f"must be a number or a CSV file name, got {v!r}", file=file, field=field)
+
+
+def water_from_table(table: dict, *, file=None, base_dir: Path | None = None) -> Water:
+    """Build a Water from a parsed ``[water]`` table (see the module docstring)."""
+    t = {CONSTITUENT_ALIASES.get(k, k): v for k, v in table.items()}
+    allowed = ("name", "preset") + _CONSTITUENT_KEYS + _MODEL_KEYS + _IOP_KEYS + tuple(CONSTITUENT_ALIASES)
+    check_keys(table, allowed, file=file, prefix="water.")
+    name = t.get("name", Path(file).stem if file else "custom")
+    iop = [k for k in _IOP_KEYS if k in t]
+    cons = [k for k in _CONSTITUENT_KEYS + _MODEL_KEYS + ("preset",) if k in t]
+    if iop and cons:
+        raise ConfigError(f"mixes explicit IOPs ({', '.join(iop)}) with constituents ({', '.join(cons)})",
+                          file=file, field="water", allowed="either constituents or a_per_m/b_per_m/phase")
+    if iop:
+        for k in ("a_per_m", "b_per_m"):
+            if k not in t:
+                raise ConfigError("missing (explicit-IOP water needs a_per_m and b_per_m)", file=file,
+                                  field=f"water.{k}")
+        a = _spectrum_value(t["a_per_m"], "a_per_m", file=file, base_dir=base_dir)
+        b = _spectrum_value(t["b_per_m"], "b_per_m", file=file, base_dir=base_dir)
+        phase = phase_from_spec(t.get("phase", "petzold-average"), b=b, file=file, base_dir=base_dir)
+        wl = t.get("wavelength_nm")
+        if wl is not None:
+            wl_list = wl if isinstance(wl, list) else [wl]
+            if not wl_list or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and x > 0
+                                      for x in wl_list):
+                raise ConfigError(f"must be a positive number or a list of them, got {wl!r}", file=file,
+                                  field="water.wavelength_nm", allowed="nm > 0")
+            wl = np.array(wl_list, float)
+            for spec in (a, b):
+                lo, hi = spec.range_nm
+                if wl.min() < lo or wl.max() > hi:
+                    raise ConfigError(f"{spec.label} covers {lo:g}–{hi:g} nm, not {wl.tolist()}",
+                                      file=file, field="water.wavelength_nm", allowed=f"{lo:g}–{hi:g} nm")
+        return TabulatedWater(str(name), a, b, phase, source=str(file or "inline"), wavelength_nm=wl)
+    params: dict[str, Any] = {}
+    for k in _CONSTITUENT_KEYS:
+        v = get_number(t, k, file=file, prefix="water.", minimum=0.0)
+        if v is not None:
+            params[k] = v
+    if "detritus_exponent" in t:
+        params["detritus_exponent"] = get_number(t, "detritus_exponent", file=file, prefix="water.",
+                                                 minimum=0.0, maximum=2.0)
+    for k in ("pure_water", "pure_water_scattering"):
+        if k in t:
+            if not isinstance(t[k], str):
+                raise ConfigError(f"must be a name, got {t[k]!r}", file=file, field=f"water.{k}")
+            params[k] = t[k]
+    if "phytoplankton" in t:
+        if not isinstance(t["phytoplankton"], bool):
+            raise ConfigError(f"must be true or false, got {t['phytoplankton']!r}", file=file,
+                              field="water.phytoplankton")
+        params["phytoplankton"] = t["phytoplankton"]
+    try:
+        if "preset" in t:
+            w = preset(str(t["preset"]), **params)
+            if isinstance(w, ConstituentWater) and "name" in t:
+                import dataclasses
+
+                w = dataclasses.replace(w, name=str(name))
+            return w
+        return ConstituentWater(name=str(name), **params)
+    except ConfigError as exc:
+        fld = exc.field or ""
+        fld = "water.preset" if fld == "water" and file is not None else fld
+        fld = fld if fld.startswith("water") else f"water.{fld}".rstrip(".")
+        raise ConfigError(exc.message, file=file, field=fld, allowed=exc.allowed) from None
+
+
+def load_water(spec: str | Path, **overrides: float | None) -> Water:
+    """A water from a preset name or a TOML file, with optional constituent overrides.
+
+    Parameters
+    ----------
+    spec
+        A preset name (``coastal``, ``jerlov-II`` …) or a path to a water TOML file.
+    overrides
+        ``chl_mg_per_m3``, ``cdom_a440_per_m``, ``small_particles_ppm``,
+        ``large_particles_ppm`` (None: keep) — only for constituent waters.
+    """
+    overrides = {k: v for k, v in overrides.items() if v is not None}
+    for k in overrides:
+        if k not in _CONSTITUENT_KEYS:
+            raise ConfigError(f"unknown override {k!r}", allowed=", ".join(_CONSTITUENT_KEYS))
+    s = str(spec)
+    path = Path(s)
+    if s.endswith(".toml") or path.is_file():
+        doc = read_toml(path)
+        check_keys(doc, ("water",), file=path)
+        if "water" not in doc or not isinstance(doc["water"], dict):
+            raise ConfigError("needs a [water] table", file=path, field="water")
+        table = dict(doc["water"])
+        if overrides:
+            if any(k in table for k in _IOP_KEYS):
+                raise ConfigError("constituent overrides do not apply to an explicit-IOP water", file=path,
+                                  field="water")
+            table.update(overrides)
+        return water_from_table(table, file=path, base_dir=path.parent)
+    table = {"preset": s, **overrides}
+    if s.lower().startswith("jerlov") and overrides:
+        raise ConfigError("constituent overrides apply only to constituent presets, not Jerlov types",
+                          field="water")
+    return water_from_table(table)
