@@ -1,0 +1,178 @@
+"""The EMVA 1288 linear camera model: electrons → digital numbers, with noise.
+
+For a pixel receiving μ_p photons in exposure time t (EMVA 1288 R4.0, §2):
+
+    μ_e = η μ_p · (1 + PRNU map)                      photo-electrons
+    n_e ~ Poisson(μ_e + μ_dark)  (shot noise, dark-current shot noise included)
+    μ_dark = D(T) · t,  D(T) = D_ref · 2^((T − T_ref)/T_d)
+    n_e ← min(n_e + DSNU map, full well)
+    y = round(black + K · (n_e + N(0, σ_d²)))  clipped to [0, 2^bits − 1]
+
+so that σ_y² = K²(σ_d² + σ_e²) + σ_q² with σ_q² = 1/12 DN² and the mean–variance
+slope of the photon transfer curve is K.  Every noise term can be switched off
+(:class:`NoiseSwitches`); with all off, ``n_e`` equals μ_e (+ D·t if the dark
+current mean is kept) exactly.
+
+Fixed-pattern maps (PRNU, DSNU) come from ``fpn_seed`` and the sensor name, so
+they stay the same from frame to frame of one camera; temporal noise comes from
+``seed``.
+
+References
+----------
+EMVA Standard 1288, Release 4.0 Linear (2021), European Machine Vision Association.
+Janesick, J. R. (2007). *Photon Transfer: DN → λ*. SPIE Press.
+"""
+
+from __future__ import annotations
+
+import zlib
+from dataclasses import dataclass, fields
+
+import numpy as np
+
+from rigsim.errors import ConfigError
+
+#: Above this mean count, Poisson shot noise is drawn as N(λ, λ) rounded (same mean and
+#: variance; skewness error < 1/√λ = 10 %); below it, exactly.  4× faster on 24 MP.
+POISSON_NORMAL_THRESHOLD = 100.0
+
+
+@dataclass(frozen=True)
+class NoiseSwitches:
+    """Which noise terms of the EMVA 1288 model are on.
+
+    Attributes
+    ----------
+    shot
+        Poisson photon (and dark-current) shot noise.
+    read
+        Temporal dark (read + ADC) noise σ_d.
+    dark_current
+        Mean dark current D(T)·t (and its shot noise if ``shot``).
+    prnu
+        Photo-response non-uniformity map.
+    dsnu
+        Dark-signal non-uniformity map.
+    """
+
+    shot: bool = True
+    read: bool = True
+    dark_current: bool = True
+    prnu: bool = True
+    dsnu: bool = True
+
+    @classmethod
+    def off(cls) -> "NoiseSwitches":
+        """All noise off: noise-free ground truth."""
+        return cls(**{f.name: False for f in fields(cls)})
+
+    @classmethod
+    def parse(cls, text: str) -> "NoiseSwitches":
+        """``"all"``, ``"none"`` or a comma list of the terms that are on (``"shot,read"``)."""
+        t = text.strip().lower()
+        if t in ("all", "on", ""):
+            return cls()
+        if t in ("none", "off"):
+            return cls.off()
+        names = [n.strip() for n in t.split(",") if n.strip()]
+        known = [f.name for f in fields(cls)]
+        for n in names:
+            if n not in known:
+                raise ConfigError(f"unknown noise term {n!r}", field="--noise",
+                                  allowed="all, none or a comma list of " + ", ".join(known))
+        return cls(**{k: (k in names) for k in known})
+
+    def as_dict(self) -> dict:
+        return {f.name: getattr(self, f.name) for f in fields(self)}
+
+
+def dark_current_e_per_s(sensor, temperature_c: float) -> float:
+    """Mean dark current (e⁻/s) at ``temperature_c``: D_ref · 2^((T − T_ref)/T_double)."""
+    return sensor.dark_current_e_per_s * 2.0 ** ((temperature_c - sensor.dark_current_ref_temp_c)
+                                                 / sensor.dark_current_doubling_c)
+
+
+def fixed_pattern_maps(sensor, shape: tuple[int, int], fpn_seed: int = 0):
+    """PRNU gain map (1 + σ·z) and DSNU offset map (e⁻) of one camera, shape ``shape``.
+
+    The maps depend only on the sensor name, ``shape`` and ``fpn_seed``.
+    """
+    key = zlib.crc32(sensor.name.encode())
+    rng = np.random.default_rng([int(fpn_seed), key])
+    prnu = 1.0 + (sensor.prnu_percent / 100.0) * rng.standard_normal(shape, dtype=np.float32)
+    dsnu = sensor.dsnu_e * rng.standard_normal(shape, dtype=np.float32)
+    return prnu.astype(np.float32), dsnu.astype(np.float32)
+
+
+def poisson(rng: np.random.Generator, lam: np.ndarray) -> np.ndarray:
+    """Poisson samples of mean ``lam`` (float32); normal approximation above
+    :data:`POISSON_NORMAL_THRESHOLD`."""
+    lam = np.asarray(lam, np.float32)
+    out = np.empty_like(lam)
+    small = lam < POISSON_NORMAL_THRESHOLD
+    n_small = int(np.count_nonzero(small))
+    if n_small == lam.size:
+        return rng.poisson(lam).astype(np.float32)
+    if n_small:
+        out[small] = rng.poisson(lam[small])
+    big = ~small if n_small else slice(None)
+    lb = lam[big]
+    z = rng.standard_normal(lb.shape, dtype=np.float32)
+    out[big] = np.rint(lb + np.sqrt(lb) * z)
+    return out
+
+
+def electrons_emva1288(mean_photo_e: np.ndarray, sensor, *, exposure_time_s: float,
+                       temperature_c: float, rng: np.random.Generator,
+                       switches: NoiseSwitches = NoiseSwitches(), fpn_seed: int = 0) -> np.ndarray:
+    """Collected electrons per pixel (after shot noise, FPN and full-well clipping).
+
+    Parameters
+    ----------
+    mean_photo_e
+        (rows, cols) mean photo-electrons η·μ_p of each pixel (its own CFA channel).
+    sensor
+        :class:`~rigsim.sensor.model.Sensor`.
+    exposure_time_s, temperature_c
+        For the dark current.
+    rng
+        Generator of the temporal noise.
+    switches
+        Noise terms that are on.
+    fpn_seed
+        Seed of the fixed-pattern maps.
+
+    Returns
+    -------
+    ndarray
+        (rows, cols) float32 electrons, in [0, full well].
+    """
+    mu = np.asarray(mean_photo_e, np.float32)
+    prnu = dsnu = None
+    if switches.prnu or switches.dsnu:
+        prnu, dsnu = fixed_pattern_maps(sensor, mu.shape, fpn_seed)
+    if switches.prnu and sensor.prnu_percent > 0:
+        mu = mu * prnu
+    if switches.dark_current:
+        mu = mu + np.float32(dark_current_e_per_s(sensor, temperature_c) * exposure_time_s)
+    e = poisson(rng, mu) if switches.shot else mu.copy()
+    if switches.dsnu and sensor.dsnu_e > 0:
+        e += dsnu
+    np.clip(e, 0.0, sensor.full_well_e, out=e)
+    return e
+
+
+def digitise_emva1288(electrons: np.ndarray, *, gain_dn_per_e: float, read_noise_e: float,
+                      black_level_dn: float, white_level_dn: int, rng: np.random.Generator,
+                      read_noise: bool = True) -> np.ndarray:
+    """Raw DN = round(black + K·(n_e + N(0, σ_d²))), clipped to [0, white]; uint16.
+
+    Quantisation is always on (the ADC); it adds σ_q² = 1/12 DN².
+    """
+    e = np.asarray(electrons, np.float32)
+    if read_noise and read_noise_e > 0:
+        e = e + np.float32(read_noise_e) * rng.standard_normal(e.shape, dtype=np.float32)
+    y = np.float32(black_level_dn) + np.float32(gain_dn_per_e) * e
+    np.rint(y, out=y)
+    np.clip(y, 0, white_level_dn, out=y)
+    return y.astype(np.uint16)

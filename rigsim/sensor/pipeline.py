@@ -1,0 +1,387 @@
+"""SpectralImage → Capture: optics, EMVA 1288 sensor, and the image-processing chain.
+
+:func:`capture` turns a :class:`~rigsim.spectral_image.SpectralImage` into a
+:class:`Capture` (electrons, raw DN mosaic) and, unless ``develop=None``,
+develops it with :func:`develop`: black subtraction → white balance on the
+mosaic → demosaicing → colour correction matrix → linear sRGB → 8-bit sRGB.
+A real raw file read by :func:`rigsim.sensor.raw_io.read_raw` is a Capture too
+and goes through the same :func:`develop`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from rigsim.errors import ConfigError
+from rigsim.sensor.cfa import channel_map, check_pattern, mosaic, pattern_codes, superpixel
+from rigsim.sensor.ccm import ccm_ColorChecker
+from rigsim.sensor.demosaic import demosaic as _demosaic
+from rigsim.sensor.model import Sensor
+from rigsim.sensor.noise import NoiseSwitches, digitise_emva1288, electrons_emva1288
+from rigsim.sensor.optics import Lens, cos4_map, electrons_per_radiance
+from rigsim.sensor.white_balance import white_balance_gains
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class Exposure:
+    """Exposure settings.
+
+    Attributes
+    ----------
+    exposure_time_s
+        Shutter time (s, > 0).
+    iso
+        ISO setting (selects K and read noise, see :meth:`Sensor.iso_setting`).
+    lens
+        The lens (f-number, transmittance, vignetting).
+    temperature_c
+        Sensor temperature (°C) for the dark current; ``None``: the sensor's reference.
+    """
+
+    exposure_time_s: float
+    iso: float
+    lens: Lens = Lens()
+    temperature_c: float | None = None
+
+    def __post_init__(self):
+        if not (np.isfinite(self.exposure_time_s) and 0 < self.exposure_time_s <= 3600):
+            raise ConfigError(f"shutter time must be in (0, 3600] s, got {self.exposure_time_s}",
+                              field="shutter", allowed="(0, 3600] s")
+        if not (np.isfinite(self.iso) and self.iso > 0):
+            raise ConfigError(f"ISO must be > 0, got {self.iso}", field="iso", allowed="> 0")
+
+    def describe(self) -> dict:
+        return {"exposure_time_s": self.exposure_time_s, "iso": self.iso,
+                "f_number": self.lens.f_number, "lens_transmittance": self.lens.transmittance,
+                "vignetting": self.lens.vignetting, "temperature_c": self.temperature_c}
+
+
+@dataclass(frozen=True)
+class DevelopOptions:
+    """Image-processing choices.
+
+    Attributes
+    ----------
+    demosaic
+        A key of :data:`rigsim.sensor.demosaic.DEMOSAICING_METHODS`.
+    white_balance
+        A key of :data:`rigsim.sensor.white_balance.WHITE_BALANCE_METHODS` or ``"as_shot"``
+        (the capture's own neutral, e.g. from a raw file).
+    wb_kwargs
+        Arguments of the white balance method (``box=`` for ``chart``, ``gains=`` for
+        ``manual``, spectra for ``illuminant``).
+    ccm
+        3×3 camera → linear sRGB matrix; ``None``: the capture's own (sensor's ColorChecker fit
+        under D65, or the raw file's colour matrix).
+    gain
+        Digital gain applied to the linear image before encoding (1 = none).
+    """
+
+    demosaic: str = "Malvar2004"
+    white_balance: str = "grayworld"
+    wb_kwargs: dict = field(default_factory=dict)
+    ccm: np.ndarray | None = None
+    gain: float = 1.0
+
+    def describe(self) -> dict:
+        kw = {k: (np.asarray(v).tolist() if isinstance(v, (np.ndarray, list, tuple)) else v)
+              for k, v in self.wb_kwargs.items() if k != "sensor"}
+        return {"demosaic": self.demosaic, "white_balance": self.white_balance, "wb_kwargs": kw,
+                "ccm": None if self.ccm is None else np.asarray(self.ccm).tolist(), "gain": self.gain}
+
+
+@dataclass(frozen=True, eq=False)
+class Capture:
+    """What a camera records, and its development.
+
+    Attributes
+    ----------
+    raw
+        (rows, cols) uint16 raw DN mosaic.
+    cfa_pattern
+        Top-left 2×2 CFA pattern (``"RGGB"`` …).
+    black_level
+        (4,) black level (DN) of the four sites of the 2×2 block, row-major.
+    white_level
+        Saturation value (DN).
+    electrons
+        (rows, cols) float32 collected electrons (simulation only; ``None`` for real files).
+    exposure
+        The exposure that made it (``None`` if unknown).
+    sensor
+        The sensor that made it (``None`` for real files; see ``camera``).
+    camera
+        Camera name.
+    as_shot_neutral
+        Camera RGB of a neutral under the scene light (G = 1), if known.
+    ccm
+        Default camera → linear sRGB matrix (3×3).
+    wb_gains
+        White balance gains (R, G, B) used by the development.
+    linear_rgb
+        (rows, cols, 3) float32 scene-linear sRGB (D65 primaries), white level → 1.
+    srgb
+        (rows, cols, 3) uint8 sRGB-encoded image.
+    meta
+        Seeds, noise switches, develop options, timings.
+    """
+
+    raw: np.ndarray
+    cfa_pattern: str
+    black_level: np.ndarray
+    white_level: float
+    electrons: np.ndarray | None = None
+    exposure: Exposure | None = None
+    sensor: Sensor | None = None
+    camera: str = ""
+    as_shot_neutral: np.ndarray | None = None
+    ccm: np.ndarray | None = None
+    wb_gains: np.ndarray | None = None
+    linear_rgb: np.ndarray | None = None
+    srgb: np.ndarray | None = None
+    meta: dict = field(default_factory=dict)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.raw.shape
+
+    def normalised_mosaic(self) -> np.ndarray:
+        """(raw − black) / (white − black) as float32 (per CFA site black level)."""
+        bl = np.asarray(self.black_level, np.float32).reshape(2, 2)
+        rows, cols = self.raw.shape
+        blmap = np.tile(bl, ((rows + 1) // 2, (cols + 1) // 2))[:rows, :cols]
+        scale = np.float32(1.0) / (np.float32(self.white_level) - blmap)
+        return (self.raw.astype(np.float32) - blmap) * scale
+
+    def describe(self) -> dict:
+        """JSON-serialisable summary (for ``capture.json``)."""
+        d = {"camera": self.camera, "shape": list(self.raw.shape), "cfa_pattern": self.cfa_pattern,
+             "black_level": np.asarray(self.black_level).tolist(), "white_level": self.white_level,
+             "exposure": self.exposure.describe() if self.exposure else None,
+             "sensor": self.sensor.describe() if self.sensor else None,
+             "as_shot_neutral": None if self.as_shot_neutral is None else np.asarray(self.as_shot_neutral).tolist(),
+             "ccm": None if self.ccm is None else np.asarray(self.ccm).tolist(),
+             "wb_gains": None if self.wb_gains is None else np.asarray(self.wb_gains).tolist()}
+        if self.electrons is not None:
+            codes = pattern_codes(self.cfa_pattern)
+            d["mean_electrons_rgb"] = [float(np.mean([self.electrons[dy::2, dx::2].mean()
+                                                      for dy in (0, 1) for dx in (0, 1) if codes[dy, dx] == c]))
+                                       for c in range(3)]
+            d["raw_saturated_fraction"] = float(np.mean(self.raw >= self.white_level))
+        d.update(self.meta)
+        return d
+
+
+# ---------------------------------------------------------------- optics + sensor
+def mean_electrons_rgb(spectral_image, sensor: Sensor, exposure: Exposure) -> np.ndarray:
+    """(rows, cols, 3) float32 mean photo-electrons per pixel if each pixel had each CFA filter.
+
+    Camera equation (see :mod:`rigsim.sensor.optics`) with the sensor's pixel area;
+    cos⁴ vignetting if ``exposure.lens.vignetting`` and the render states ``meta['fov_deg']``.
+    """
+    si = spectral_image
+    qe = sensor.qe_at(si.wavelength_nm)
+    m = electrons_per_radiance(si.wavelength_nm, si.bandwidth_nm, qe, lens=exposure.lens,
+                               pixel_area_m2=sensor.pixel_area_m2, exposure_time_s=exposure.exposure_time_s)
+    rad = np.asarray(si.radiance)
+    rows, cols, nb = rad.shape
+    e = (rad.reshape(-1, nb).astype(np.float64) @ m).reshape(rows, cols, 3)
+    if exposure.lens.vignetting:
+        fov = (si.meta or {}).get("fov_deg")
+        if fov is not None:
+            e *= cos4_map((rows, cols), float(fov))[..., None]
+        else:
+            log.warning("vignetting asked for but the render has no meta['fov_deg']; not applied")
+    return e.astype(np.float32)
+
+
+def _resize(img: np.ndarray, shape) -> np.ndarray:
+    import cv2
+
+    rows, cols = int(shape[0]), int(shape[1])
+    if (rows, cols) == img.shape[:2]:
+        return img
+    interp = cv2.INTER_AREA if rows < img.shape[0] else cv2.INTER_LINEAR
+    return cv2.resize(img, (cols, rows), interpolation=interp)
+
+
+def auto_exposure(spectral_image, sensor: Sensor, *, lens: Lens = Lens(), iso: float | None = None,
+                  percentile: float = 99.0, target: float = 0.8,
+                  temperature_c: float | None = None) -> Exposure:
+    """Shutter time that puts the ``percentile`` of the raw signal at ``target`` × saturation.
+
+    Parameters
+    ----------
+    percentile
+        Percentile (0–100) of the mosaic's mean electrons to place.
+    target
+        Fraction (0–1] of the saturation electrons (:meth:`Sensor.saturation_e`).
+    iso
+        ISO to use (default: the sensor's base ISO).
+    """
+    if not (0 < percentile <= 100) or not (0 < target <= 1):
+        raise ConfigError("auto-exposure needs 0 < percentile <= 100 and 0 < target <= 1",
+                          field="--auto-exposure")
+    iso = sensor.base_iso if iso is None else iso
+    probe = Exposure(1.0, iso, lens, temperature_c)
+    e1 = mosaic(mean_electrons_rgb(spectral_image, sensor, probe), sensor.cfa_pattern)
+    level = float(np.percentile(e1, percentile))
+    if not np.isfinite(level) or level <= 0:
+        raise ConfigError("auto-exposure: the image is black", field="--auto-exposure",
+                          allowed="a render with light, or a fixed --shutter")
+    t = target * sensor.saturation_e(iso) / level
+    return Exposure(float(np.clip(t, 1e-6, 3600.0)), iso, lens, temperature_c)
+
+
+def capture(spectral_image, sensor: Sensor, exposure: Exposure, *, seed: int = 0,
+            noise: NoiseSwitches = NoiseSwitches(), fpn_seed: int = 0,
+            shape: tuple[int, int] | None = None,
+            develop: "DevelopOptions | None" = DevelopOptions()) -> Capture:
+    """Photograph a SpectralImage with a sensor.
+
+    Parameters
+    ----------
+    spectral_image
+        Radiance at the entrance pupil (:class:`~rigsim.spectral_image.SpectralImage`).
+    sensor, exposure
+        Camera and settings.
+    seed
+        Seed of the temporal noise (same seed, same image).
+    noise
+        Which EMVA 1288 noise terms are on (``NoiseSwitches.off()``: ground truth).
+    fpn_seed
+        Seed of the fixed-pattern (PRNU/DSNU) maps: one value = one camera body.
+    shape
+        (rows, cols) of the mosaic; default the render's.  The render is resampled
+        (area/bilinear); electrons per pixel follow the sensor's pixel pitch.
+    develop
+        Development options, or ``None`` for raw only.
+
+    Returns
+    -------
+    Capture
+    """
+    t0 = time.perf_counter()
+    mean_rgb = mean_electrons_rgb(spectral_image, sensor, exposure)
+    if shape is not None:
+        mean_rgb = _resize(mean_rgb, shape)
+    mu = mosaic(mean_rgb, sensor.cfa_pattern)
+    del mean_rgb
+    t1 = time.perf_counter()
+    rng = np.random.default_rng(seed)
+    temp = sensor.dark_current_ref_temp_c if exposure.temperature_c is None else exposure.temperature_c
+    setting = sensor.iso_setting(exposure.iso)
+    electrons = electrons_emva1288(mu, sensor, exposure_time_s=exposure.exposure_time_s,
+                                   temperature_c=temp, rng=rng, switches=noise, fpn_seed=fpn_seed)
+    raw = digitise_emva1288(electrons, gain_dn_per_e=setting.gain_dn_per_e,
+                            read_noise_e=setting.read_noise_e, black_level_dn=sensor.black_level_dn,
+                            white_level_dn=sensor.white_level_dn, rng=rng, read_noise=noise.read)
+    t2 = time.perf_counter()
+    cap = Capture(raw=raw, cfa_pattern=sensor.cfa_pattern,
+                  black_level=np.full(4, float(sensor.black_level_dn)),
+                  white_level=float(sensor.white_level_dn), electrons=electrons, exposure=exposure,
+                  sensor=sensor, camera=sensor.name, ccm=ccm_ColorChecker(sensor, "D65"),
+                  meta={"seed": seed, "fpn_seed": fpn_seed, "noise": noise.as_dict(),
+                        "gain_dn_per_e": setting.gain_dn_per_e, "read_noise_e": setting.read_noise_e,
+                        "temperature_c": temp, "render_meta_keys": sorted((spectral_image.meta or {}).keys()),
+                        "timing_s": {"optics": t1 - t0, "sensor": t2 - t1}})
+    if develop is not None:
+        cap = _develop(cap, develop)
+    return cap
+
+
+# ---------------------------------------------------------------- development (ISP)
+def _srgb_lut() -> np.ndarray:
+    x = np.arange(65536, dtype=np.float64) / 65535.0
+    y = np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1 / 2.4) - 0.055)
+    return np.rint(np.clip(y, 0, 1) * 255).astype(np.uint8)
+
+
+_SRGB_LUT = None
+
+
+def encode_srgb8(linear: np.ndarray) -> np.ndarray:
+    """IEC 61966-2-1 sRGB encoding of linear [0, 1] values to uint8 (16-bit LUT)."""
+    global _SRGB_LUT
+    if _SRGB_LUT is None:
+        _SRGB_LUT = _srgb_lut()
+    idx = np.clip(linear, 0.0, 1.0) * np.float32(65535.0)
+    return _SRGB_LUT[(idx + np.float32(0.5)).astype(np.uint16)]
+
+
+def _wb_gains(cap: Capture, cfa: np.ndarray, opts: DevelopOptions) -> np.ndarray:
+    method = opts.white_balance
+    kw = dict(opts.wb_kwargs)
+    if method == "as_shot":
+        if cap.as_shot_neutral is None:
+            raise ConfigError("this capture has no as-shot white balance", field="--wb",
+                              allowed="grayworld, white_patch, chart, illuminant, manual")
+        n = np.asarray(cap.as_shot_neutral, float)
+        return n[1] / n
+    if method == "illuminant":
+        if cap.sensor is None:
+            raise ConfigError("illuminant white balance needs a simulated sensor's QE", field="--wb",
+                              allowed="grayworld, white_patch, chart, manual, as_shot")
+        kw.setdefault("sensor", cap.sensor)
+        return white_balance_gains(None, method, **kw)
+    if method in ("manual",):
+        return white_balance_gains(None, method, **kw)
+    half = superpixel(cfa, cap.cfa_pattern)
+    if method == "chart":
+        if "box" in kw:
+            r0, r1, c0, c1 = kw.pop("box")
+            kw["box"] = (r0 // 2, max(r1 // 2, r0 // 2 + 1), c0 // 2, max(c1 // 2, c0 // 2 + 1))
+        if "mask" in kw:
+            m = np.asarray(kw.pop("mask"), bool)
+            kw["mask"] = m[: half.shape[0] * 2: 2, : half.shape[1] * 2: 2]
+    return white_balance_gains(half, method, **kw)
+
+
+def _develop(cap: Capture, opts: DevelopOptions) -> Capture:
+    t0 = time.perf_counter()
+    cfa = cap.normalised_mosaic()
+    gains = _wb_gains(cap, cfa, opts)
+    g = gains.astype(np.float32)[pattern_codes(cap.cfa_pattern)]
+    for dy in (0, 1):
+        for dx in (0, 1):
+            cfa[dy::2, dx::2] *= g[dy, dx]
+    np.clip(cfa, 0.0, 1.0, out=cfa)  # dcraw-style: white-balanced highlights clip to white
+    t1 = time.perf_counter()
+    rgb = _demosaic(cfa, cap.cfa_pattern, opts.demosaic)
+    del cfa
+    t2 = time.perf_counter()
+    ccm = np.eye(3) if (opts.ccm is None and cap.ccm is None) else np.asarray(
+        cap.ccm if opts.ccm is None else opts.ccm, float)
+    if ccm.shape != (3, 3):
+        raise ConfigError(f"CCM must be 3×3, got {ccm.shape}", field="ccm")
+    m = (ccm.T * float(opts.gain)).astype(np.float32)
+    rows, cols, _ = rgb.shape
+    lin = (rgb.reshape(-1, 3) @ m).reshape(rows, cols, 3)
+    del rgb
+    srgb = encode_srgb8(lin)
+    t3 = time.perf_counter()
+    meta = dict(cap.meta)
+    meta["develop"] = opts.describe()
+    meta["timing_s"] = {**meta.get("timing_s", {}), "white_balance": t1 - t0, "demosaic": t2 - t1,
+                        "ccm_encode": t3 - t2}
+    return dataclasses.replace(cap, wb_gains=gains, linear_rgb=lin, srgb=srgb, meta=meta,
+                               as_shot_neutral=cap.as_shot_neutral if cap.as_shot_neutral is not None
+                               else gains[1] / gains)
+
+
+def develop(cap: Capture, options: DevelopOptions = DevelopOptions()) -> Capture:
+    """Develop a raw Capture (simulated or read from a file): WB → demosaic → CCM → sRGB.
+
+    Steps: (raw − black)/(white − black); white-balance gains applied per CFA site and
+    clipped to 1; demosaicing; the CCM (camera → linear sRGB, D65); ×``gain``;
+    IEC 61966-2-1 encoding to 8 bits.
+    """
+    check_pattern(cap.cfa_pattern)
+    return _develop(cap, options)
