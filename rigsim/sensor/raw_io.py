@@ -98,7 +98,9 @@ def read_raw(path: str | Path) -> Capture:
     except ConfigError:
         raise
     except (rawpy.LibRawError, OSError, ValueError) as exc:
-        raise ConfigError(f"cannot read as a raw file ({type(exc).__name__}: {exc})", file=path,
+        why = "format not recognised" if isinstance(exc, (rawpy.LibRawFileUnsupportedError,
+                                                         rawpy.LibRawIOError)) else str(exc)
+        raise ConfigError(f"cannot read as a raw file: {why} ({type(exc).__name__})", file=path,
                           allowed=_RAW_ALLOWED) from None
     exposure = None
     tags = {}
@@ -117,15 +119,16 @@ def read_raw(path: str | Path) -> Capture:
                          else "none (identity)"})
 
 
-def save_capture(cap: Capture, out_dir: str | Path, *, extra: dict | None = None) -> dict[str, Path]:
-    """Write ``raw.dng``, ``rgb.png`` (8-bit sRGB), ``linear.tiff`` (float32 linear sRGB) and
-    ``capture.json`` into ``out_dir`` (atomically); returns the paths."""
+def save_capture(cap: Capture, out_dir: str | Path, *, extra: dict | None = None,
+                 dng: bool = True) -> dict[str, Path]:
+    """Write ``raw.dng`` (if ``dng``), ``rgb.png`` (8-bit sRGB), ``linear.tiff`` (float32 linear
+    sRGB) and ``capture.json`` into ``out_dir`` (atomically); returns the paths."""
     import cv2
     import tifffile
 
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
-    paths = {"dng": save_dng(cap, out / "raw.dng")}
+    paths = {"dng": save_dng(cap, out / "raw.dng")} if dng else {}
     if cap.srgb is not None:
         ok, png = cv2.imencode(".png", np.ascontiguousarray(cap.srgb[..., ::-1]))
         if not ok:
