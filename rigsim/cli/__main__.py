@@ -1,0 +1,5 @@
+"""``python -m rigsim.cli``."""
+
+from rigsim.cli import main
+
+main()
