@@ -1,0 +1,105 @@
+"""Metrics on synthetic images with known answers."""
+
+import numpy as np
+import pytest
+from scipy.special import erf
+
+from rigsim import metrics as M
+
+
+def test_contrast_known_patches():
+    assert M.contrast_michelson(0.8, 0.2) == pytest.approx(0.6)
+    assert M.contrast_weber(0.8, 0.2) == pytest.approx(3.0)
+    assert M.contrast_weber(0.0, 0.5) == pytest.approx(-1.0)
+    np.testing.assert_allclose(M.contrast_michelson([1, 2, 3], [1, 1, 1]), [0, 1 / 3, 0.5])
+    img = np.zeros((20, 20, 3))
+    img[5:10, 5:10] = [0.5, 0.3, 0.1]
+    img[img.sum(-1) == 0] = [0.1, 0.1, 0.1]
+    t = np.zeros((20, 20), bool)
+    t[5:10, 5:10] = True
+    c = M.contrast_michelson(img[t].mean(0), img[~t].mean(0))
+    np.testing.assert_allclose(c, [0.4 / 0.6, 0.2 / 0.4, 0.0], atol=1e-12)
+    assert M.luminance(np.array([1.0, 1.0, 1.0])) == pytest.approx(1.0)
+
+
+def test_patch_snr_poisson():
+    rng = np.random.default_rng(0)
+    img = rng.poisson(400.0, size=(200, 200)).astype(float)
+    snr = M.patch_snr(img, np.ones((200, 200), bool))
+    assert snr == pytest.approx(20.0, rel=0.02)
+    assert M.patch_snr(np.ones((4, 4)), np.ones((4, 4), bool)) == np.inf
+
+
+def test_backscatter_share():
+    tot = np.full((4, 4, 2), 2.0)
+    bs = np.full((4, 4, 2), 0.5)
+    assert M.backscatter_share(bs, tot) == pytest.approx(0.25)
+
+
+# CIEDE2000 test pairs from G. Sharma, W. Wu, E.N. Dalal, "The CIEDE2000 color-difference formula:
+# implementation notes, supplementary test data, and mathematical observations", Color Res. Appl.
+# 30(1):21-30 (2005), Table 1 (pairs 1, 7, 13, 17, 25, 34).
+SHARMA = [
+    ((50.0000, 2.6772, -79.7751), (50.0000, 0.0000, -82.7485), 2.0425),
+    ((50.0000, 0.0000, 0.0000), (50.0000, -1.0000, 2.0000), 2.3669),
+    ((50.0000, 2.4900, -0.0010), (50.0000, -2.4900, 0.0011), 7.2195),
+    ((50.0000, 2.5000, 0.0000), (73.0000, 25.0000, -18.0000), 27.1492),
+    ((60.2574, -34.0099, 36.2677), (60.4626, -34.1751, 39.4387), 1.2644),
+    ((22.7233, 20.0904, -46.6940), (23.0331, 14.9730, -42.5619), 2.0373),
+]
+
+
+def test_delta_e_2000_published_pairs():
+    a = np.array([p[0] for p in SHARMA])
+    b = np.array([p[1] for p in SHARMA])
+    np.testing.assert_allclose(M.delta_e_2000(a, b), [p[2] for p in SHARMA], atol=1e-4)
+
+
+def test_chart_delta_e_zero_for_identical():
+    xyz = np.random.default_rng(1).uniform(0.05, 0.9, (24, 3))
+    mean, per = M.chart_delta_e(xyz, xyz)
+    assert mean == 0.0 and per.shape == (24,)
+
+
+def _gaussian_edge(sigma_px, angle_deg=5.0, size=100):
+    y, x = np.mgrid[0:size, 0:size].astype(float)
+    t = np.tan(np.radians(angle_deg))
+    d = (x - size / 2 - (y - size / 2) * t) * np.cos(np.radians(angle_deg))
+    return 0.1 + 0.8 * 0.5 * (1 + erf(d / (np.sqrt(2) * sigma_px)))
+
+
+@pytest.mark.parametrize("sigma", [0.6, 1.0, 2.0])
+def test_mtf_of_gaussian_edge(sigma):
+    f, m = M.mtf_slanted_edge(_gaussian_edge(sigma))
+    exact = np.exp(-2 * np.pi**2 * sigma**2 * f**2)
+    sel = f <= 0.5
+    np.testing.assert_allclose(m[sel], exact[sel], atol=0.03)
+    f50 = np.sqrt(np.log(2) / (2 * np.pi**2 * sigma**2))
+    assert M.mtf50(f, m) == pytest.approx(f50, rel=0.05)
+
+
+def test_mtf_horizontal_edge_and_bad_angle():
+    f, m = M.mtf_slanted_edge(_gaussian_edge(1.0).T)
+    assert M.mtf50(f, m) == pytest.approx(np.sqrt(np.log(2) / (2 * np.pi**2)), rel=0.05)
+    with pytest.raises(ValueError, match="edge angle"):
+        M.mtf_slanted_edge(_gaussian_edge(1.0, angle_deg=0.0))
+
+
+@pytest.mark.parametrize("c,c0,thr", [(0.3, 0.9, 0.02), (1.2, 0.5, 0.02), (0.5, 0.8, 0.05)])
+def test_visibility_range_exponential(c, c0, thr):
+    d = np.linspace(0.5, 20, 12)
+    contrast = c0 * np.exp(-c * d)
+    assert M.visibility_range(d, contrast, threshold=thr) == pytest.approx(np.log(c0 / thr) / c, rel=1e-9)
+
+
+def test_visibility_range_edges():
+    d = np.array([1.0, 2.0, 3.0])
+    assert M.visibility_range(d, [0.5, 0.4, 0.3]) == np.inf
+    r = M.visibility_range(d, [0.01, 0.005, 0.001])
+    assert r < 1.0
+    with pytest.raises(ValueError):
+        M.visibility_range([2.0, 1.0], [0.5, 0.1])
+
+
+def test_black_disk_range():
+    assert M.black_disk_range_ZaneveldPegau2003(0.4) == pytest.approx(12.0)
