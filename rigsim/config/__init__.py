@@ -1,5 +1,10 @@
-"""Parse and validate user files (rigs, waters, sensors, studies) once, at the edge.
+"""Configuration files parsed once, at the edge, into typed frozen objects.
 
-Everything below :mod:`rigsim.config` receives typed objects, never dicts or paths.
-Errors name the file, the field and the allowed values (:class:`rigsim.errors.ConfigError`).
+* :func:`load_rig` — a rig file (TOML, format in ``rigs/README.md``) → :class:`~rigsim.scene.types.Rig`.
+* :class:`~rigsim.config.reader.Section` — field-path-aware TOML table reader (one-line errors).
 """
+
+from rigsim.config.reader import Section, read_toml
+from rigsim.config.rig import camera_basis, load_rig, parse_rig
+
+__all__ = ["Section", "read_toml", "camera_basis", "load_rig", "parse_rig"]
