@@ -1,0 +1,205 @@
+"""The study report: one self-contained HTML file (plots and images inline, opens offline)."""
+
+from __future__ import annotations
+
+import base64
+import csv
+import html
+import io
+import json
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+
+from rigsim.fileio import atomic_write_text
+
+__all__ = ["write_report", "summary_sentences"]
+
+
+def _read_csv(path: Path) -> list[dict]:
+    if not path.is_file():
+        return []
+    with path.open() as fh:
+        rows = list(csv.DictReader(fh))
+    for r in rows:
+        for k, v in r.items():
+            try:
+                r[k] = float(v) if v not in ("", None) else None
+            except ValueError:
+                pass
+    return rows
+
+
+def _png(fig) -> str:
+    buf = io.BytesIO()
+    fig.savefig(buf, format="png", dpi=100)
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+    return "data:image/png;base64," + base64.b64encode(buf.getvalue()).decode()
+
+
+def _img_file(path: Path) -> str:
+    return "data:image/png;base64," + base64.b64encode(path.read_bytes()).decode()
+
+
+def _fmt_m(x) -> str:
+    if x is None or (isinstance(x, float) and np.isnan(x)):
+        return "n/a"
+    if np.isinf(x):
+        return "beyond the sweep"
+    return f"{x:.1f} m"
+
+
+def summary_sentences(vis: list[dict], *, sensor: str | None = None, target: str | None = None) -> list[str]:
+    """Plain-language comparison of the rigs per water, from the visibility table."""
+    by_water: dict[str, list[dict]] = defaultdict(list)
+    for r in vis:
+        if (sensor is None or r["sensor"] == sensor) and (target is None or r["target"] == target):
+            by_water[r["water"]].append(r)
+    out = []
+    for water, rs in by_water.items():
+        rs = sorted(rs, key=lambda r: -(r.get("visibility_m_radiance") or 0))
+        parts = [f"{r['rig']} to {_fmt_m(r.get('visibility_m_radiance'))}" for r in rs]
+        thr = rs[0]["threshold"] * 100
+        out.append(f"In {water} water ({rs[0]['target']}), contrast stays above {thr:g} %: " + ", ".join(parts) + ".")
+    return out
+
+
+def write_report(study_dir: str | Path) -> Path:
+    """Write ``report.html`` into a study folder from its tables and images."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    d = Path(study_dir)
+    spec = json.loads((d / "study.json").read_text())
+    rows = _read_csv(d / "results.csv")
+    vis = _read_csv(d / "visibility.csv")
+    timings = _read_csv(d / "timings.csv")
+    waters = list(dict.fromkeys(spec["water_names"]))
+    rigs = list(dict.fromkeys(spec["rig_names"]))
+    sensors = [Path(s).stem for s in spec["sensors"]]
+    targets = [Path(t).name for t in spec["targets"]]
+    thr = spec["contrast_threshold"]
+
+    sec: list[str] = []
+    # ------------------------------------------------------------------ summary
+    items = []
+    for t in targets:
+        items += summary_sentences(vis, sensor=sensors[0] if sensors else None, target=t)
+    sec.append("<h2>Summary</h2><ul>" + "".join(f"<li>{html.escape(s)}</li>" for s in items) + "</ul>"
+               + f"<p>Visibility range: the distance at which the target's apparent contrast (luminance, "
+                 f"noise-free scene radiance) falls below {thr * 100:g} %, interpolated in log-contrast over "
+                 f"the distance sweep.</p>")
+
+    # ------------------------------------------------------------------ plots
+    def per_water_plot(ycol: str, ylabel: str, *, logy=False, hline=None, target=None):
+        fig, axes = plt.subplots(1, len(waters), figsize=(4.2 * len(waters), 3.6), squeeze=False, sharey=True)
+        for ax, w in zip(axes[0], waters):
+            for rig in rigs:
+                for s in sensors:
+                    rs = [r for r in rows if r["water"] == w and r["rig"] == rig and r["sensor"] == s
+                          and (target is None or r["target"] == target) and r.get(ycol) is not None]
+                    rs.sort(key=lambda r: r["distance_m"])
+                    if rs:
+                        ax.plot([r["distance_m"] for r in rs], [r[ycol] for r in rs], "o-", ms=3,
+                                label=f"{rig} / {s}")
+            if hline is not None:
+                ax.axhline(hline, color="k", ls=":", lw=1)
+            if logy:
+                ax.set_yscale("log")
+            ax.set_title(w)
+            ax.set_xlabel("distance (m)")
+            ax.grid(alpha=0.3)
+        axes[0][0].set_ylabel(ylabel)
+        axes[0][-1].legend(fontsize=7)
+        fig.tight_layout()
+        return _png(fig)
+
+    for t in targets:
+        if any(r.get("contrast_radiance") is not None and r["target"] == t for r in rows):
+            sec.append(f"<h2>Contrast versus distance — {html.escape(t)}</h2>"
+                       f"<img src='{per_water_plot('contrast_radiance', 'contrast (radiance)', logy=True, hline=thr, target=t)}'>"
+                       f"<img src='{per_water_plot('contrast_image', 'contrast (developed image)', logy=True, hline=thr, target=t)}'>")
+    if vis:
+        fig, axes = plt.subplots(1, len(targets), figsize=(6 * len(targets), 3.8), squeeze=False)
+        for ax, t in zip(axes[0], targets):
+            labels = [f"{r}/{s}" for r in rigs for s in sensors]
+            x = np.arange(len(waters))
+            wbar = 0.8 / max(1, len(labels))
+            for i, lab in enumerate(labels):
+                rig, s = lab.split("/", 1)
+                vals = []
+                for w in waters:
+                    m = [v for v in vis if v["water"] == w and v["rig"] == rig and v["sensor"] == s
+                         and v["target"] == t]
+                    vals.append(m[0]["visibility_m_radiance"] if m and m[0]["visibility_m_radiance"] is not None
+                                else np.nan)
+                vals = np.array(vals, float)
+                ax.bar(x + i * wbar, np.where(np.isinf(vals), max(spec["distances_m"]), vals), wbar, label=lab)
+            ax.set_xticks(x + 0.4 - wbar / 2, waters)
+            ax.set_ylabel("visibility range (m)")
+            ax.set_title(t)
+            ax.legend(fontsize=7)
+        fig.tight_layout()
+        sec.append(f"<h2>Visibility range</h2><img src='{_png(fig)}'>"
+                   "<p>Bars at the largest distance mean the contrast stayed above the threshold over the whole "
+                   "sweep.</p>")
+    for col, label in (("delta_e_mean", "mean ΔE2000 of the chart"), ("snr_white", "SNR of the white patch"),
+                       ("backscatter_share", "backscatter share of the signal")):
+        if any(r.get(col) is not None for r in rows):
+            sec.append(f"<h2>{html.escape(label[0].upper() + label[1:])} versus distance</h2>"
+                       f"<img src='{per_water_plot(col, label, logy=(col == 'snr_white'))}'>")
+
+    # ------------------------------------------------------------------ image grids
+    for rig in rigs:
+        for s in sensors:
+            for t in targets:
+                cells = []
+                for w in waters:
+                    tr = [f"<th>{html.escape(w)}</th>"]
+                    for dist in spec["distances_m"]:
+                        m = [r for r in rows if r["rig"] == rig and r["sensor"] == s and r["water"] == w
+                             and r["target"] == t and r["distance_m"] == dist]
+                        img = d / "cases" / m[0]["case_id"] / f"{s}.png" if m else None
+                        tr.append(f"<td><img class='thumb' src='{_img_file(img)}'></td>" if img and img.is_file()
+                                  else "<td>—</td>")
+                    cells.append("<tr>" + "".join(tr) + "</tr>")
+                head = "<tr><th></th>" + "".join(f"<th>{x:g} m</th>" for x in spec["distances_m"]) + "</tr>"
+                sec.append(f"<h3>Images: {html.escape(rig)} · {html.escape(s)} · {html.escape(t)}</h3>"
+                           f"<table class='grid'>{head}{''.join(cells)}</table>")
+
+    # ------------------------------------------------------------------ tables and inputs
+    if vis:
+        cols = list(vis[0].keys())
+        trs = "".join("<tr>" + "".join(f"<td>{html.escape(_cell(v.get(c)))}</td>" for c in cols) + "</tr>"
+                      for v in vis)
+        sec.append("<h2>Visibility table</h2><table class='data'><tr>"
+                   + "".join(f"<th>{html.escape(c)}</th>" for c in cols) + f"</tr>{trs}</table>")
+    total_t = sum(t["wall_time_s"] or 0 for t in timings)
+    r = spec["render"]
+    sec.append("<h2>Inputs</h2>"
+               f"<p>Rendered at {r['width']}×{r['height']} pixels, {r['spp']} samples per pixel, "
+               f"{len(r['wavelengths_nm'])} bands {min(r['wavelengths_nm']):g}–{max(r['wavelengths_nm']):g} nm, "
+               f"engine {html.escape(str(r['engine']))}; {len(timings)} scenes in {total_t:.0f} s of compute.</p>"
+               f"<pre>{html.escape(json.dumps(spec, indent=1))}</pre>")
+
+    page = f"""<!doctype html><html><head><meta charset="utf-8"><title>rigsim study: {html.escape(spec['name'])}</title>
+<style>body{{font-family:sans-serif;margin:2em;max-width:1400px}} img{{max-width:100%}}
+table.grid td,table.grid th{{padding:2px;text-align:center;font-size:12px}} img.thumb{{width:140px}}
+table.data{{border-collapse:collapse;font-size:12px}} table.data td,table.data th{{border:1px solid #ccc;padding:2px 6px}}
+pre{{background:#f5f5f5;padding:1em;font-size:11px;overflow:auto}}</style></head><body>
+<h1>rigsim study: {html.escape(spec['name'])}</h1><p>{html.escape(spec.get('description', ''))}</p>
+{''.join(sec)}</body></html>"""
+    out = d / "report.html"
+    atomic_write_text(out, page)
+    return out
+
+
+def _cell(v) -> str:
+    if isinstance(v, float):
+        return "inf" if np.isinf(v) else f"{v:.3g}"
+    return "" if v is None else str(v)

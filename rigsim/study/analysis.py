@@ -1,0 +1,38 @@
+"""Derived tables of a study: visibility range per rig × sensor × water × target."""
+
+from __future__ import annotations
+
+from collections import defaultdict
+
+import numpy as np
+
+from rigsim.metrics.visibility import visibility_range
+
+__all__ = ["visibility_table", "GROUP_KEYS"]
+
+#: Columns that identify a distance sweep.
+GROUP_KEYS = ("rig", "sensor", "water", "target")
+
+
+def visibility_table(rows: list[dict], threshold: float) -> list[dict]:
+    """For each rig × sensor × water × target, the distance where contrast falls below
+    ``threshold``, from the scene radiance (noise-free, ``contrast_radiance``) and from the
+    developed image (``contrast_image``)."""
+    groups: dict[tuple, list[dict]] = defaultdict(list)
+    for r in rows:
+        groups[tuple(r.get(k) for k in GROUP_KEYS)].append(r)
+    out = []
+    for key, rs in groups.items():
+        rs = sorted(rs, key=lambda r: r["distance_m"])
+        d = np.array([r["distance_m"] for r in rs], float)
+        rec = dict(zip(GROUP_KEYS, key))
+        rec["threshold"] = threshold
+        rec["n_distances"] = len(d)
+        for col in ("contrast_radiance", "contrast_image"):
+            c = np.array([r.get(col, np.nan) for r in rs], float)
+            ok = np.isfinite(c)
+            rng = visibility_range(d[ok], c[ok], threshold=threshold) if ok.sum() >= 2 else float("nan")
+            rec[f"visibility_m_{col.split('_')[1]}"] = rng
+        rec["c_550_per_m"] = rs[0].get("c_550_per_m")
+        out.append(rec)
+    return out
