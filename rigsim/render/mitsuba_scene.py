@@ -1,0 +1,145 @@
+"""Scene → Mitsuba scene (dict and loaded object), one render pass at a time.
+
+The water is a Mitsuba ``homogeneous`` medium with spectral ``sigma_t = c(λ)`` and
+``albedo = b(λ)/c(λ)`` (resampled every 1 nm over 360–830 nm, ends held, ``c``
+floored at :data:`C_FLOOR_PER_M`) and the rigsim phase plugin.  It fills a sphere of
+radius :func:`world_radius` around the camera whose boundary is a ``null``
+interface: rays that leave it travel on in vacuum and see black.  The camera rays
+start inside the water; every target surface has the water as its exterior.
+
+Render passes (``mode``):
+
+* ``"full"`` — water as it is;
+* ``"clear"`` — no medium (the same view and lights without water);
+* ``"direct"`` — albedo 0 with σ_t = c: only light that was never scattered by water;
+* ``"backscatter"`` — the targets black (still occluding): only light scattered by
+  the water without reaching a surface.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from rigsim.errors import ConfigError
+from rigsim.render.emitter_plugin import make_emitter
+from rigsim.render.phase_plugin import WaterPhaseFunction, make_phase
+from rigsim.render.spectra import regular_dict, spectrum_dict
+from rigsim.render.targets import Surface, target_surfaces
+from rigsim.render.variant import mitsuba
+from rigsim.scene.types import Scene
+
+__all__ = ["MODES", "MitsubaScene", "build_mitsuba_scene", "water_medium_dict", "world_radius",
+           "C_FLOOR_PER_M"]
+
+mi, dr = mitsuba()
+
+MODES = ("full", "clear", "direct", "backscatter")
+#: Smallest beam attenuation given to Mitsuba (1/m): c = 0 would make NaNs.
+C_FLOOR_PER_M = 1e-6
+WATER_KEY = "water_volume"
+MEDIUM_KEY = "water"
+
+
+@dataclass
+class MitsubaScene:
+    """A loaded Mitsuba scene and what the renderer needs to know about it."""
+
+    scene: object
+    medium: object | None
+    surfaces: list[Surface]
+    shape_ids: dict[str, int] = field(default_factory=dict)  # Mitsuba shape id → object id
+    mode: str = "full"
+
+
+def world_radius(scene: Scene) -> float:
+    """Radius of the water sphere (m): ≥ 1 km and ≫ every distance in the scene."""
+    pts = [np.asarray(scene.camera.position_m, float)] + [np.asarray(l.position_m, float) for l in scene.lights]
+    ext = max([t.distance_m for t in scene.targets] + [float(np.linalg.norm(p)) for p in pts] + [1.0])
+    return float(max(1000.0, 100.0 * ext))
+
+
+_PHASE_CACHE: dict[int, tuple[object, WaterPhaseFunction]] = {}
+
+
+def _phase_for(water) -> WaterPhaseFunction:
+    key = id(water)
+    hit = _PHASE_CACHE.get(key)
+    if hit is not None and hit[0] is water:
+        return hit[1]
+    ph = make_phase(water.phase, water.wavelength_range_nm)
+    if len(_PHASE_CACHE) > 16:
+        _PHASE_CACHE.clear()
+    _PHASE_CACHE[key] = (water, ph)
+    return ph
+
+
+def water_medium_dict(water, *, albedo_zero: bool = False, phase=None) -> dict:
+    """Mitsuba ``homogeneous`` medium dict for a :class:`~rigsim.water.model.Water`."""
+    rng = water.wavelength_range_nm
+    c_dict, _, c = regular_dict(water.c_per_m, rng, floor=C_FLOOR_PER_M)
+    if albedo_zero:
+        a_dict = {"type": "uniform", "value": 0.0}
+    else:
+        a_dict, _, _ = regular_dict(lambda wl: np.clip(water.b_per_m(wl) / np.maximum(water.c_per_m(wl),
+                                                                                       C_FLOOR_PER_M), 0, 1),
+                                    rng)
+    if not np.all(np.isfinite(c)):
+        raise ConfigError(f"water {water.name!r} has non-finite attenuation", field="water")
+    return {"type": "homogeneous", "sigma_t": c_dict, "albedo": a_dict,
+            "phase": phase if phase is not None else _phase_for(water)}
+
+
+def build_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: int = -1,
+                        rr_depth: int = 5) -> MitsubaScene:
+    """Load the Mitsuba scene of one render pass.
+
+    Parameters
+    ----------
+    scene
+        The rigsim scene.
+    lights
+        The lights of this pass (a subset of ``scene.lights``: strobes and
+        continuous lights are rendered in separate passes).
+    mode
+        One of :data:`MODES`.
+    max_depth, rr_depth
+        Path length limit (−1: none) and the depth at which Russian roulette starts.
+    """
+    if mode not in MODES:
+        raise ValueError(f"mode must be one of {MODES}")
+    R = world_radius(scene)
+    surfaces = target_surfaces(scene.camera, scene.targets, world_radius_m=R)
+    d: dict = {"type": "scene",
+               "integrator": {"type": "volpath", "max_depth": int(max_depth), "rr_depth": int(rr_depth)}}
+    has_water = scene.water is not None and mode != "clear"
+    if has_water:
+        d[MEDIUM_KEY] = water_medium_dict(scene.water, albedo_zero=(mode == "direct"))
+        d[WATER_KEY] = {"type": "sphere", "center": [float(x) for x in scene.camera.position_m], "radius": R,
+                        "bsdf": {"type": "null"}, "interior": {"type": "ref", "id": MEDIUM_KEY}}
+    for s in surfaces:
+        if mode == "backscatter":
+            refl = {"type": "uniform", "value": 0.0}
+        else:
+            refl = spectrum_dict(s.wavelength_nm, s.reflectance, name=s.label)
+        sd = dict(s.shape)
+        sd["bsdf"] = {"type": "twosided", "material": {"type": "diffuse", "reflectance": refl}}
+        if has_water:
+            sd["exterior"] = {"type": "ref", "id": MEDIUM_KEY}
+        d[s.key] = sd
+    for i, light in enumerate(lights):
+        if np.any(np.asarray(light.axial_intensity, float) > 0):
+            d[f"light{i}"] = make_emitter(light)
+    try:
+        loaded = mi.load_dict(d)
+    except ConfigError:
+        raise
+    except Exception as e:  # noqa: BLE001 - turn Mitsuba's parser errors into one line
+        raise ConfigError(f"cannot build the Mitsuba scene: {str(e).splitlines()[0][:300]}") from None
+    medium = None
+    shape_ids = {s.key: i + 1 for i, s in enumerate(surfaces)}
+    for sh in loaded.shapes():
+        if sh.id() == WATER_KEY:
+            medium = sh.interior_medium()
+    return MitsubaScene(scene=loaded, medium=medium, surfaces=surfaces, shape_ids=shape_ids, mode=mode)

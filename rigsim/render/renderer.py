@@ -1,0 +1,395 @@
+"""``render(scene) → SpectralImage`` with Mitsuba 3 (volumetric path tracing).
+
+How a render works
+------------------
+Camera rays are generated here (pinhole + dome/flat port, see
+:mod:`rigsim.render.camera`), pixel positions jittered uniformly inside each pixel
+(box filter: the pixel value is the pixel-averaged radiance).  Each path carries
+four wavelengths (Mitsuba's spectral variants): the first is drawn stratified over
+the pixel's samples from the union of the bands (each band with probability 1/B,
+uniform inside it), the other three are rotated by 1/4, 2/4, 3/4 of that range.
+Mitsuba's ``volpath`` integrator returns the radiance at those four wavelengths and
+each value is added to the band it fell in; the band average is
+``Σ L · B / (4 · spp)`` — an unbiased estimate of the radiance averaged over the
+band, W·m⁻²·sr⁻¹·nm⁻¹.  Sums are accumulated in float64 with numpy (deterministic:
+the same seed gives the same image bit for bit).
+
+Lights are linear, so continuous lights (→ ``radiance``) and strobes (→ ``flash``,
+J·m⁻²·sr⁻¹·nm⁻¹ per flash) are separate passes, as are the ground-truth layers
+``clear`` (no water), ``direct`` (albedo 0) and ``backscatter`` (black targets);
+see :mod:`rigsim.render.mitsuba_scene`.  ``range_m`` and ``object_id`` come from one
+ray through each pixel centre.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import time
+import warnings
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from rigsim.errors import ConfigError
+from rigsim.render.camera import camera_frame, fov_water_deg, generate_rays
+from rigsim.render.mitsuba_scene import MitsubaScene, build_mitsuba_scene, world_radius
+from rigsim.render.variant import is_jit, mitsuba, variant
+from rigsim.scene.types import Scene
+from rigsim.spectral_image import SpectralImage
+from rigsim.spectrum import DEFAULT_WAVELENGTHS_NM, MITSUBA_WAVELENGTH_RANGE_NM, as_wavelengths
+
+__all__ = ["render", "render_pass", "band_edges", "RENDER_LAYERS", "MAX_LANES"]
+
+mi, dr = mitsuba()
+
+#: Ground-truth layers ``render`` can make (``direct``/``backscatter`` also via ``split=True``).
+RENDER_LAYERS = ("range_m", "clear", "object_id", "direct", "backscatter")
+#: Most paths traced in one kernel launch (memory bound).
+MAX_LANES = 1 << 21
+
+ProgressCallback = Callable[[float, str], None]
+
+
+def band_edges(wavelength_nm, bandwidth_nm=None) -> tuple[np.ndarray, np.ndarray]:
+    """Band centres and widths (nm).
+
+    Default widths: the grid spacing (the smaller neighbour distance), 10 nm for a
+    single band; bands may not overlap.
+    """
+    wl = np.atleast_1d(as_wavelengths(wavelength_nm)).astype(float)
+    if wl.size > 1 and np.any(np.diff(wl) <= 0):
+        raise ConfigError("wavelengths must increase strictly", field="wavelengths_nm")
+    if bandwidth_nm is None:
+        if wl.size == 1:
+            bw = np.array([10.0])
+        else:
+            d = np.diff(wl)
+            bw = np.minimum(np.concatenate([[d[0]], d]), np.concatenate([d, [d[-1]]]))
+    else:
+        bw = np.broadcast_to(np.asarray(bandwidth_nm, float), wl.shape).copy()
+        if np.any(~np.isfinite(bw)) or np.any(bw <= 0):
+            raise ConfigError("band widths must be > 0 nm", field="bandwidth_nm", allowed="> 0")
+        if wl.size > 1 and np.any(wl[1:] - bw[1:] / 2 < wl[:-1] + bw[:-1] / 2 - 1e-9):
+            raise ConfigError("bands overlap", field="bandwidth_nm",
+                              allowed="widths no larger than the band spacing")
+    lo, hi = MITSUBA_WAVELENGTH_RANGE_NM
+    if wl[0] - bw[0] / 2 < lo - 1e-9 or wl[-1] + bw[-1] / 2 > hi + 1e-9:
+        raise ConfigError(f"bands {wl[0] - bw[0] / 2:g}–{wl[-1] + bw[-1] / 2:g} nm leave Mitsuba's range",
+                          field="wavelengths_nm", allowed=f"{lo:g}–{hi:g} nm")
+    return wl, bw
+
+
+def _check_int(name: str, v, lo: int, hi: int | None = None) -> int:
+    try:
+        iv = int(v)
+    except (TypeError, ValueError):
+        raise ConfigError(f"must be an integer, got {v!r}", field=name) from None
+    if iv != v or iv < lo or (hi is not None and iv > hi):
+        raise ConfigError(f"must be an integer in [{lo}, {hi if hi is not None else '∞'}], got {v!r}", field=name)
+    return iv
+
+
+def _check_coverage(scene: Scene, lo: float, hi: float) -> None:
+    if scene.water is not None:
+        scene.water.check_range([lo, hi])
+    for light in scene.lights:
+        wl = np.asarray(light.wavelength_nm, float)
+        if wl.size == 0 or len(light.axial_intensity) != wl.size:
+            raise ConfigError(f"light {light.name!r}: intensity table is empty or mismatched",
+                              field=f"lights.{light.name}")
+        if wl.size > 1 and (wl[0] > lo + 1e-9 or wl[-1] < hi - 1e-9):
+            raise ConfigError(f"light {light.name!r} spectrum covers {wl[0]:g}–{wl[-1]:g} nm, the bands need "
+                              f"{lo:g}–{hi:g} nm", field=f"lights.{light.name}",
+                              allowed=f"a spectrum covering {lo:g}–{hi:g} nm")
+        a = np.asarray(light.axial_intensity, float)
+        if not np.all(np.isfinite(a)) or np.any(a < 0):
+            raise ConfigError(f"light {light.name!r}: intensities must be finite and >= 0",
+                              field=f"lights.{light.name}")
+    for i, t in enumerate(scene.targets):
+        if t.reflectance:
+            wl = np.asarray(t.reflectance_wavelength_nm, float)
+            r = np.asarray(t.reflectance, float)
+            if np.any(~np.isfinite(r)) or np.any(r < 0) or np.any(r > 1):
+                raise ConfigError("reflectance must be within 0…1", field=f"targets[{i}].reflectance",
+                                  allowed="0 ≤ r ≤ 1")
+            if wl.size > 1 and (wl[0] > lo + 1e-9 or wl[-1] < hi - 1e-9):
+                raise ConfigError(f"reflectance covers {wl[0]:g}–{wl[-1]:g} nm, the bands need {lo:g}–{hi:g} nm",
+                                  field=f"targets[{i}].reflectance")
+
+
+def _chunk_seed(seed: int, pass_index: int, chunk: int) -> int:
+    h = hashlib.blake2b(f"{seed}:{pass_index}:{chunk}".encode(), digest_size=4).digest()
+    return int.from_bytes(h, "little")
+
+
+def render_pass(ms: MitsubaScene, camera, *, width: int, height: int, spp: int, seed: int,
+                band_lo: np.ndarray, band_w: np.ndarray, pass_index: int = 0,
+                tick: Callable[[], None] | None = None) -> tuple[np.ndarray, int]:
+    """Band-averaged radiance (height, width, bands) of one loaded Mitsuba scene.
+
+    Parameters
+    ----------
+    ms
+        The scene (``ms.medium`` is the medium the camera sits in, or None).
+    camera
+        The :class:`~rigsim.scene.types.Camera` whose rays are traced.
+    band_lo, band_w
+        Lower band edges and widths (nm).
+
+    Returns
+    -------
+    (image, dropped)
+        float64 image and the number of non-finite path values that were dropped.
+    """
+    B = len(band_lo)
+    n_pix = width * height
+    acc = np.zeros(n_pix * B, np.float64)
+    integrator = ms.scene.integrator()
+    lo_arr = mi.Float(band_lo.astype(np.float32))
+    w_arr = mi.Float(band_w.astype(np.float32))
+    dropped = 0
+    for chunk, (row0, rows, s0, sc) in enumerate(_chunks(width, height, spp)):
+        n = rows * width * sc
+        sampler = mi.load_dict({"type": "independent"})
+        sampler.seed(_chunk_seed(seed, pass_index, chunk), n)
+        idx = dr.arange(mi.UInt32, n)
+        pix = idx // sc
+        s = mi.Float(idx % sc + s0)
+        row = mi.Float(pix // width + row0)
+        col = mi.Float(pix % width)
+        jit = sampler.next_2d()
+        o, d = generate_rays(camera, (col + jit.x) / width, (row + jit.y) / height, width, height)
+        ray = mi.RayDifferential3f(o, d)
+        u = (s + sampler.next_1d()) / spp
+        lams, bands = [], []
+        for j in range(4):
+            uj = u + 0.25 * j
+            uj = dr.select(uj >= 1.0, uj - 1.0, uj)
+            fb = uj * B
+            b = mi.UInt32(dr.clip(dr.floor(fb), 0, B - 1))
+            lam = dr.gather(mi.Float, lo_arr, b) + dr.clip(fb - mi.Float(b), 0.0, 1.0) * dr.gather(mi.Float, w_arr, b)
+            lams.append(lam)
+            bands.append(b)
+        ray.wavelengths = mi.Spectrum(*lams)
+        L, _, _ = integrator.sample(ms.scene, sampler, ray, ms.medium, mi.Bool(True))
+        bands_arr = mi.Vector4u(*bands) if hasattr(mi, "Vector4u") else bands
+        dr.eval(L, bands_arr)
+        Ln = np.asarray(L, np.float64).reshape(4, n)
+        Bn = np.stack([np.asarray(b, np.int64) for b in bands])
+        bad = ~np.isfinite(Ln)
+        if bad.any():
+            dropped += int(bad.sum())
+            Ln[bad] = 0.0
+        pix_g = np.arange(n, dtype=np.int64) // sc + row0 * width
+        acc += np.bincount((pix_g[None, :] * B + Bn).ravel(), weights=Ln.ravel(), minlength=n_pix * B)
+        if tick is not None:
+            tick()
+    img = acc.reshape(height, width, B) * (B / (4.0 * spp))
+    return img, dropped
+
+
+def _chunks(width: int, height: int, spp: int):
+    """(row0, rows, sample0, samples) blocks of at most MAX_LANES paths."""
+    per_row = width
+    if per_row * height * spp <= MAX_LANES:
+        yield 0, height, 0, spp
+        return
+    sc = max(1, min(spp, MAX_LANES // (per_row * height)))
+    if sc >= 1 and per_row * height * sc <= MAX_LANES:
+        for s0 in range(0, spp, sc):
+            yield 0, height, s0, min(sc, spp - s0)
+        return
+    rows = max(1, MAX_LANES // per_row)
+    for s0 in range(spp):
+        for r0 in range(0, height, rows):
+            yield r0, min(rows, height - r0), s0, 1
+
+
+def _n_chunks(width: int, height: int, spp: int) -> int:
+    return sum(1 for _ in _chunks(width, height, spp))
+
+
+def _geometry_layers(ms: MitsubaScene, scene: Scene, width: int, height: int) -> tuple[np.ndarray, np.ndarray]:
+    """range_m and object_id from one ray through each pixel centre."""
+    n = width * height
+    idx = dr.arange(mi.UInt32, n)
+    row = mi.Float(idx // width) + 0.5
+    col = mi.Float(idx % width) + 0.5
+    o, d = generate_rays(scene.camera, col / width, row / height, width, height)
+    si = ms.scene.ray_intersect(mi.Ray3f(o, d))
+    oid = mi.Int32(0)
+    for sh in ms.scene.shapes():
+        k = ms.shape_ids.get(sh.id())
+        if k is not None:
+            oid = dr.select(si.is_valid() & (si.shape == mi.ShapePtr(sh)), mi.Int32(k), oid)
+    pupil = mi.Point3f(*[float(x) for x in scene.camera.position_m])
+    rng = dr.select(oid > 0, dr.norm(si.p - pupil), dr.inf)
+    dr.eval(oid, rng)
+    return (np.asarray(rng, np.float64).reshape(height, width).astype(np.float32),
+            np.asarray(oid, np.int32).reshape(height, width))
+
+
+def _light_meta(light) -> dict:
+    d = dataclasses.asdict(light)
+    d.pop("wavelength_nm", None)
+    d.pop("axial_intensity", None)
+    wl = np.asarray(light.wavelength_nm, float)
+    a = np.asarray(light.axial_intensity, float)
+    d["axial_intensity_range"] = [float(a.min()), float(a.max())] if a.size else []
+    d["wavelength_range_nm"] = [float(wl.min()), float(wl.max())] if wl.size else []
+    return d
+
+
+def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, seed: int = 0,
+           wavelengths_nm: Sequence[float] = DEFAULT_WAVELENGTHS_NM, bandwidth_nm=None,
+           layers: Sequence[str] = ("range_m", "clear", "object_id"), split: bool = False,
+           max_depth: int = -1, progress: ProgressCallback | None = None) -> SpectralImage:
+    """Render a :class:`~rigsim.scene.types.Scene` to a :class:`~rigsim.spectral_image.SpectralImage`.
+
+    Parameters
+    ----------
+    scene
+        Camera, lights, targets and water (``water=None``: no water).
+    width, height
+        Image size (pixels); pixels are square (horizontal FOV from the sensor).
+    spp
+        Paths per pixel (each carries four wavelengths).
+    seed
+        Random seed; the same inputs and seed give the same image.
+    wavelengths_nm, bandwidth_nm
+        Band centres (nm) and widths (default: the grid spacing); each band holds
+        the radiance averaged over it.
+    layers
+        Ground-truth layers from :data:`RENDER_LAYERS`.
+    split
+        Also render ``direct`` and ``backscatter``.
+    max_depth
+        Longest path (−1: unlimited, Russian roulette ends paths).
+    progress
+        Called as ``progress(fraction_done, message)`` after each kernel launch.
+
+    Returns
+    -------
+    SpectralImage
+        ``radiance`` in W·m⁻²·sr⁻¹·nm⁻¹ from continuous lights (zeros if there are
+        none); strobes go to ``flash`` (J·m⁻²·sr⁻¹·nm⁻¹ per flash) and
+        ``flash_clear``/``flash_direct``/``flash_backscatter``.
+    """
+    t_start = time.perf_counter()
+    width = _check_int("width", width, 1, 16384)
+    height = _check_int("height", height, 1, 16384)
+    spp = _check_int("spp", spp, 1, 1 << 20)
+    seed = _check_int("seed", seed, 0, 2**32 - 1)
+    layers = tuple(layers)
+    for k in layers:
+        if k not in RENDER_LAYERS:
+            raise ConfigError(f"unknown layer {k!r}", field="layers", allowed=", ".join(RENDER_LAYERS))
+    if split:
+        layers = layers + tuple(k for k in ("direct", "backscatter") if k not in layers)
+    wl, bw = band_edges(wavelengths_nm, bandwidth_nm)
+    lo_edges = wl - bw / 2
+    _check_coverage(scene, float(lo_edges[0]), float(wl[-1] + bw[-1] / 2))
+    if not is_jit():
+        warnings.warn("rendering with a scalar Mitsuba variant: expect hours per image", RuntimeWarning,
+                      stacklevel=2)
+    if scene.daylight is not None:
+        warnings.warn("daylight is not rendered by rigsim.render yet; only the rig's lights are",
+                      RuntimeWarning, stacklevel=2)
+    f, _, _ = camera_frame(scene.camera)  # validates forward/up
+    if abs(width / height - scene.camera.sensor_width_mm / scene.camera.sensor_height_mm) > 0.02 * width / height:
+        warnings.warn(f"image aspect {width}x{height} differs from the sensor's "
+                      f"{scene.camera.sensor_width_mm}x{scene.camera.sensor_height_mm} mm; "
+                      "the horizontal field of view is kept", RuntimeWarning, stacklevel=2)
+
+    groups = {"continuous": [l for l in scene.lights if l.kind == "continuous"],
+              "strobe": [l for l in scene.lights if l.kind == "strobe"]}
+    for l in scene.lights:
+        if l.kind not in groups:
+            raise ConfigError(f"light {l.name!r}: kind must be strobe or continuous, got {l.kind!r}",
+                              field=f"lights.{l.name}.kind")
+    water = scene.water is not None
+    modes = ["full"]
+    if water:
+        modes += [m for m in ("clear", "direct", "backscatter") if m in layers]
+    passes = [(g, m) for g in ("continuous", "strobe") if groups[g] for m in modes]
+    per_pass = _n_chunks(width, height, spp)
+    total = max(1, len(passes) * per_pass)
+    done = [0]
+
+    def tick(msg: str):
+        def _t():
+            done[0] += 1
+            if progress is not None:
+                progress(done[0] / total, msg)
+        return _t
+
+    results: dict[tuple[str, str], np.ndarray] = {}
+    dropped = 0
+    geom_scene: MitsubaScene | None = None
+    for pi, (g, m) in enumerate(passes):
+        ms = build_mitsuba_scene(scene, lights=groups[g], mode=m, max_depth=max_depth)
+        if geom_scene is None:
+            geom_scene = ms
+        img, nd = render_pass(ms, scene.camera, width=width, height=height, spp=spp, seed=seed, pass_index=pi,
+                               band_lo=lo_edges, band_w=bw, tick=tick(f"{g} {m}"))
+        results[(g, m)] = img.astype(np.float32)
+        dropped += nd
+    if dropped:
+        warnings.warn(f"{dropped} non-finite path samples were dropped", RuntimeWarning, stacklevel=2)
+
+    shape = (height, width, len(wl))
+    zeros = np.zeros(shape, np.float32)
+    out_layers: dict[str, np.ndarray] = {}
+    radiance = results.get(("continuous", "full"), zeros)
+    for g, prefix in (("continuous", ""), ("strobe", "flash_")):
+        if not groups[g]:
+            continue
+        full = results[(g, "full")]
+        if g == "strobe":
+            out_layers["flash"] = full
+        for k in ("clear", "direct", "backscatter"):
+            if k not in layers:
+                continue
+            if water:
+                v = results[(g, k)]
+            else:
+                v = zeros if k == "backscatter" else full
+            out_layers[f"{prefix}{k}"] = v
+    if "range_m" in layers or "object_id" in layers:
+        if geom_scene is None:
+            geom_scene = build_mitsuba_scene(scene, lights=[], mode="clear")
+        rng, oid = _geometry_layers(geom_scene, scene, width, height)
+        if "range_m" in layers:
+            out_layers["range_m"] = rng
+        if "object_id" in layers:
+            out_layers["object_id"] = oid
+    legend = {str(i + 1): s.label for i, s in enumerate(geom_scene.surfaces)} if geom_scene else {}
+
+    meta = {
+        "renderer": "rigsim.render (Mitsuba 3 volpath)",
+        "mitsuba_version": mi.__version__,
+        "variant": variant(),
+        "wavelength_nm": wl.tolist(),
+        "bandwidth_nm": bw.tolist(),
+        "width": width, "height": height, "spp": spp, "seed": seed, "max_depth": max_depth,
+        "layers": list(out_layers),
+        "passes": [f"{g}:{m}" for g, m in passes],
+        "water": scene.water.describe() if water else None,
+        "camera": dataclasses.asdict(scene.camera),
+        "fov_water_x_deg": fov_water_deg(scene.camera),
+        "lights": [_light_meta(l) for l in scene.lights],
+        "targets": [dataclasses.asdict(t) for t in scene.targets],
+        "object_ids": legend,
+        "world_radius_m": world_radius(scene),
+        "radiance_reference": "in-water radiance arriving at the port, band-averaged (no port "
+                              "transmission or n^2 factor)",
+        "dropped_samples": dropped,
+        "daylight_rendered": False if scene.daylight is not None else None,
+    }
+    meta["scene_hash"] = hashlib.sha256(json.dumps(
+        {k: meta[k] for k in ("water", "camera", "lights", "targets")}, sort_keys=True,
+        default=str).encode()).hexdigest()[:16]
+    meta["wall_time_s"] = time.perf_counter() - t_start
+    return SpectralImage(radiance=radiance, wavelength_nm=wl, bandwidth_nm=bw, layers=out_layers, meta=meta)

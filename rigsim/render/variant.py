@@ -1,0 +1,77 @@
+"""Choose and set the Mitsuba variant once; every Mitsuba import in rigsim goes through here.
+
+Preference: ``cuda_ad_spectral`` when a CUDA GPU is usable, else
+``llvm_ad_spectral`` (needs libLLVM), else ``scalar_spectral`` with a warning
+(correct but far too slow for real images: every ray runs Python code).
+Set ``RIGSIM_MITSUBA_VARIANT`` to force one.
+"""
+
+from __future__ import annotations
+
+import functools
+import os
+import warnings
+
+from rigsim.errors import RigsimError
+
+__all__ = ["mitsuba", "variant", "is_jit", "PREFERRED_VARIANTS"]
+
+#: Variants tried in order.
+PREFERRED_VARIANTS = ("cuda_ad_spectral", "llvm_ad_spectral", "scalar_spectral")
+
+
+@functools.lru_cache(maxsize=None)
+def _setup() -> tuple[object, object, str]:
+    try:
+        import drjit as dr
+        import mitsuba as mi
+    except ImportError as e:  # pragma: no cover - dependency missing
+        raise RigsimError(f"Mitsuba 3 is not installed ({e}); `pip install mitsuba==3.9.*`") from None
+    forced = os.environ.get("RIGSIM_MITSUBA_VARIANT")
+    candidates = (forced,) if forced else PREFERRED_VARIANTS
+    available = set(mi.variants())
+    errors = []
+    for v in candidates:
+        if v not in available:
+            errors.append(f"{v}: not built")
+            continue
+        if v.startswith("cuda") and not forced and not _has_cuda(dr):
+            errors.append(f"{v}: no CUDA device")
+            continue
+        try:
+            mi.set_variant(v)
+            if v.startswith("llvm"):
+                dr.zeros(mi.Float, 1).numpy()  # fails here if libLLVM is missing
+        except Exception as e:  # noqa: BLE001 - any failure means "try the next one"
+            errors.append(f"{v}: {e}")
+            continue
+        if v.startswith("scalar"):
+            warnings.warn("Mitsuba LLVM/CUDA back-ends unavailable (" + "; ".join(errors) +
+                          "); falling back to scalar_spectral — rendering will be very slow. "
+                          "Install libLLVM (e.g. `apt install libllvm19`) for the llvm_ad_spectral variant.",
+                          RuntimeWarning, stacklevel=3)
+        return mi, dr, v
+    raise RigsimError("no usable Mitsuba spectral variant: " + "; ".join(errors))
+
+
+def _has_cuda(dr) -> bool:
+    try:
+        return bool(dr.has_backend(dr.JitBackend.CUDA))
+    except Exception:  # noqa: BLE001
+        return False
+
+
+def mitsuba():
+    """``(mi, dr)`` with the variant set (chosen on first call)."""
+    mi, dr, _ = _setup()
+    return mi, dr
+
+
+def variant() -> str:
+    """Name of the Mitsuba variant in use."""
+    return _setup()[2]
+
+
+def is_jit() -> bool:
+    """True for the vectorised (LLVM/CUDA) variants."""
+    return not variant().startswith("scalar")
