@@ -68,9 +68,14 @@ def _opencv(cfa: np.ndarray, pattern: str, suffix: str) -> np.ndarray:
     code = getattr(cv2, f"COLOR_Bayer{check_pattern(pattern)}2RGB{suffix}")
     cfa = np.asarray(cfa, np.float32)
     scale = max(float(cfa.max(initial=0.0)), 1e-12)
-    u16 = np.rint(np.clip(cfa / scale, 0, 1) * 65535.0).astype(np.uint16)
-    rgb = cv2.cvtColor(u16, code)
-    return rgb.astype(np.float32) * np.float32(scale / 65535.0)
+    u = np.clip(cfa, 0.0, None)
+    u *= np.float32(65535.0 / scale)
+    u += np.float32(0.5)
+    rgb = cv2.cvtColor(u.astype(np.uint16), code)
+    del u
+    out = rgb.astype(np.float32)
+    out *= np.float32(scale / 65535.0)
+    return out
 
 
 def demosaicing_OpenCV_bilinear(cfa: np.ndarray, pattern: str) -> np.ndarray:

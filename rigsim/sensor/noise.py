@@ -25,6 +25,7 @@ Janesick, J. R. (2007). *Photon Transfer: DN → λ*. SPIE Press.
 
 from __future__ import annotations
 
+import functools
 import zlib
 from dataclasses import dataclass, fields
 
@@ -95,30 +96,44 @@ def dark_current_e_per_s(sensor, temperature_c: float) -> float:
 def fixed_pattern_maps(sensor, shape: tuple[int, int], fpn_seed: int = 0):
     """PRNU gain map (1 + σ·z) and DSNU offset map (e⁻) of one camera, shape ``shape``.
 
-    The maps depend only on the sensor name, ``shape`` and ``fpn_seed``.
+    The maps depend only on the sensor name, its PRNU/DSNU, ``shape`` and ``fpn_seed``;
+    the last two pairs made are cached (read-only arrays): one camera body in a sweep.
     """
-    key = zlib.crc32(sensor.name.encode())
-    rng = np.random.default_rng([int(fpn_seed), key])
-    prnu = 1.0 + (sensor.prnu_percent / 100.0) * rng.standard_normal(shape, dtype=np.float32)
-    dsnu = sensor.dsnu_e * rng.standard_normal(shape, dtype=np.float32)
-    return prnu.astype(np.float32), dsnu.astype(np.float32)
+    return _fpn_maps(sensor.name, float(sensor.prnu_percent), float(sensor.dsnu_e),
+                     (int(shape[0]), int(shape[1])), int(fpn_seed))
 
 
-def poisson(rng: np.random.Generator, lam: np.ndarray) -> np.ndarray:
-    """Poisson samples of mean ``lam`` (float32); normal approximation above
-    :data:`POISSON_NORMAL_THRESHOLD`."""
+@functools.lru_cache(maxsize=2)
+def _fpn_maps(name: str, prnu_percent: float, dsnu_e: float, shape, fpn_seed: int):
+    rng = np.random.default_rng([fpn_seed, zlib.crc32(name.encode())])
+    prnu = rng.standard_normal(shape, dtype=np.float32)
+    prnu *= np.float32(prnu_percent / 100.0)
+    prnu += np.float32(1.0)
+    dsnu = rng.standard_normal(shape, dtype=np.float32)
+    dsnu *= np.float32(dsnu_e)
+    prnu.flags.writeable = False
+    dsnu.flags.writeable = False
+    return prnu, dsnu
+
+
+def poisson(rng: np.random.Generator, lam: np.ndarray, *, out: np.ndarray | None = None) -> np.ndarray:
+    """Poisson samples of mean ``lam`` as float32; normal approximation N(λ, λ) rounded at
+    and above :data:`POISSON_NORMAL_THRESHOLD`, exact below.  ``out`` may be ``lam`` itself."""
     lam = np.asarray(lam, np.float32)
-    out = np.empty_like(lam)
     small = lam < POISSON_NORMAL_THRESHOLD
-    n_small = int(np.count_nonzero(small))
-    if n_small == lam.size:
-        return rng.poisson(lam).astype(np.float32)
-    if n_small:
-        out[small] = rng.poisson(lam[small])
-    big = ~small if n_small else slice(None)
-    lb = lam[big]
-    z = rng.standard_normal(lb.shape, dtype=np.float32)
-    out[big] = np.rint(lb + np.sqrt(lb) * z)
+    lam_small = lam[small] if small.any() else None
+    if out is None:
+        out = lam.copy()
+    elif out is not lam:
+        np.copyto(out, lam)
+    if lam_small is None or lam_small.size < out.size:
+        z = rng.standard_normal(out.shape, dtype=np.float32)
+        root = np.sqrt(out)
+        root *= z
+        out += root
+        np.rint(out, out=out)
+    if lam_small is not None:
+        out[small] = rng.poisson(lam_small)
     return out
 
 
@@ -147,15 +162,16 @@ def electrons_emva1288(mean_photo_e: np.ndarray, sensor, *, exposure_time_s: flo
     ndarray
         (rows, cols) float32 electrons, in [0, full well].
     """
-    mu = np.asarray(mean_photo_e, np.float32)
+    e = np.array(mean_photo_e, dtype=np.float32, copy=True)
     prnu = dsnu = None
     if switches.prnu or switches.dsnu:
-        prnu, dsnu = fixed_pattern_maps(sensor, mu.shape, fpn_seed)
+        prnu, dsnu = fixed_pattern_maps(sensor, e.shape, fpn_seed)
     if switches.prnu and sensor.prnu_percent > 0:
-        mu = mu * prnu
+        e *= prnu
     if switches.dark_current:
-        mu = mu + np.float32(dark_current_e_per_s(sensor, temperature_c) * exposure_time_s)
-    e = poisson(rng, mu) if switches.shot else mu.copy()
+        e += np.float32(dark_current_e_per_s(sensor, temperature_c) * exposure_time_s)
+    if switches.shot:
+        poisson(rng, e, out=e)
     if switches.dsnu and sensor.dsnu_e > 0:
         e += dsnu
     np.clip(e, 0.0, sensor.full_well_e, out=e)
@@ -171,8 +187,13 @@ def digitise_emva1288(electrons: np.ndarray, *, gain_dn_per_e: float, read_noise
     """
     e = np.asarray(electrons, np.float32)
     if read_noise and read_noise_e > 0:
-        e = e + np.float32(read_noise_e) * rng.standard_normal(e.shape, dtype=np.float32)
-    y = np.float32(black_level_dn) + np.float32(gain_dn_per_e) * e
+        y = rng.standard_normal(e.shape, dtype=np.float32)
+        y *= np.float32(read_noise_e)
+        y += e
+    else:
+        y = e.copy()
+    y *= np.float32(gain_dn_per_e)
+    y += np.float32(black_level_dn)
     np.rint(y, out=y)
     np.clip(y, 0, white_level_dn, out=y)
     return y.astype(np.uint16)

@@ -18,7 +18,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from rigsim.errors import ConfigError
-from rigsim.sensor.cfa import channel_map, check_pattern, mosaic, pattern_codes, superpixel
+from rigsim.sensor.cfa import check_pattern, mosaic, pattern_codes
 from rigsim.sensor.ccm import ccm_ColorChecker
 from rigsim.sensor.demosaic import demosaic as _demosaic
 from rigsim.sensor.model import Sensor
@@ -152,13 +152,33 @@ class Capture:
     def shape(self) -> tuple[int, int]:
         return self.raw.shape
 
-    def normalised_mosaic(self) -> np.ndarray:
-        """(raw − black) / (white − black) as float32 (per CFA site black level)."""
-        bl = np.asarray(self.black_level, np.float32).reshape(2, 2)
-        rows, cols = self.raw.shape
-        blmap = np.tile(bl, ((rows + 1) // 2, (cols + 1) // 2))[:rows, :cols]
-        scale = np.float32(1.0) / (np.float32(self.white_level) - blmap)
-        return (self.raw.astype(np.float32) - blmap) * scale
+    def normalised_mosaic(self, gains=None) -> np.ndarray:
+        """(raw − black) / (white − black) as float32 (per CFA site black level), times the
+        per-channel ``gains`` (R, G, B) if given."""
+        bl = np.asarray(self.black_level, np.float64).reshape(2, 2)
+        codes = pattern_codes(self.cfa_pattern)
+        out = self.raw.astype(np.float32)
+        for dy in (0, 1):
+            for dx in (0, 1):
+                g = 1.0 if gains is None else float(gains[codes[dy, dx]])
+                site = out[dy::2, dx::2]
+                site -= np.float32(bl[dy, dx])
+                site *= np.float32(g / (self.white_level - bl[dy, dx]))
+        return out
+
+    def half_rgb(self) -> np.ndarray:
+        """Half-resolution normalised camera RGB from 2×2 blocks (R, mean G, B); for statistics."""
+        bl = np.asarray(self.black_level, np.float64).reshape(2, 2)
+        codes = pattern_codes(self.cfa_pattern)
+        r2, c2 = self.raw.shape[0] // 2 * 2, self.raw.shape[1] // 2 * 2
+        out = np.zeros((r2 // 2, c2 // 2, 3), np.float32)
+        for dy in (0, 1):
+            for dx in (0, 1):
+                site = self.raw[dy:r2:2, dx:c2:2].astype(np.float32)
+                site -= np.float32(bl[dy, dx])
+                site *= np.float32((0.5 if codes[dy, dx] == 1 else 1.0) / (self.white_level - bl[dy, dx]))
+                out[..., codes[dy, dx]] += site
+        return out
 
     def describe(self) -> dict:
         """JSON-serialisable summary (for ``capture.json``)."""
@@ -202,14 +222,31 @@ def mean_electrons_rgb(spectral_image, sensor: Sensor, exposure: Exposure) -> np
     return e.astype(np.float32)
 
 
-def _resize(img: np.ndarray, shape) -> np.ndarray:
+def _resampled_mosaic(img: np.ndarray, pattern: str, shape) -> np.ndarray:
+    """Mosaic of ``img`` (rows, cols, 3) resampled to ``shape``.
+
+    Downsampling: area average (cv2.INTER_AREA) then mosaic.  Upsampling: each CFA site is
+    bilinearly interpolated straight from its channel at its own position (cv2.warpAffine),
+    the same values as cv2.resize(INTER_LINEAR) then mosaic, without the full-size RGB.
+    """
     import cv2
 
     rows, cols = int(shape[0]), int(shape[1])
     if (rows, cols) == img.shape[:2]:
-        return img
-    interp = cv2.INTER_AREA if rows < img.shape[0] else cv2.INTER_LINEAR
-    return cv2.resize(img, (cols, rows), interpolation=interp)
+        return mosaic(img, pattern)
+    if rows < img.shape[0] or cols < img.shape[1]:
+        return mosaic(cv2.resize(img, (cols, rows), interpolation=cv2.INTER_AREA), pattern)
+    sy, sx = img.shape[0] / rows, img.shape[1] / cols
+    out = np.empty((rows, cols), np.float32)
+    codes = pattern_codes(pattern)
+    for dy in (0, 1):
+        for dx in (0, 1):
+            h, w = (rows - dy + 1) // 2, (cols - dx + 1) // 2
+            m = np.array([[2 * sx, 0, (dx + 0.5) * sx - 0.5], [0, 2 * sy, (dy + 0.5) * sy - 0.5]])
+            out[dy::2, dx::2] = cv2.warpAffine(np.ascontiguousarray(img[..., codes[dy, dx]]), m, (w, h),
+                                               flags=cv2.INTER_LINEAR | cv2.WARP_INVERSE_MAP,
+                                               borderMode=cv2.BORDER_REPLICATE)
+    return out
 
 
 def auto_exposure(spectral_image, sensor: Sensor, *, lens: Lens = Lens(), iso: float | None = None,
@@ -270,9 +307,7 @@ def capture(spectral_image, sensor: Sensor, exposure: Exposure, *, seed: int = 0
     """
     t0 = time.perf_counter()
     mean_rgb = mean_electrons_rgb(spectral_image, sensor, exposure)
-    if shape is not None:
-        mean_rgb = _resize(mean_rgb, shape)
-    mu = mosaic(mean_rgb, sensor.cfa_pattern)
+    mu = _resampled_mosaic(mean_rgb, sensor.cfa_pattern, mean_rgb.shape[:2] if shape is None else shape)
     del mean_rgb
     t1 = time.perf_counter()
     rng = np.random.default_rng(seed)
@@ -307,16 +342,24 @@ def _srgb_lut() -> np.ndarray:
 _SRGB_LUT = None
 
 
-def encode_srgb8(linear: np.ndarray) -> np.ndarray:
-    """IEC 61966-2-1 sRGB encoding of linear [0, 1] values to uint8 (16-bit LUT)."""
+def encode_srgb8(linear: np.ndarray, *, scratch: np.ndarray | None = None) -> np.ndarray:
+    """IEC 61966-2-1 sRGB encoding of linear [0, 1] values to uint8 (through a 16-bit LUT).
+
+    ``scratch``: an optional float32 array of the same shape that may be overwritten.
+    """
     global _SRGB_LUT
     if _SRGB_LUT is None:
         _SRGB_LUT = _srgb_lut()
-    idx = np.clip(linear, 0.0, 1.0) * np.float32(65535.0)
-    return _SRGB_LUT[(idx + np.float32(0.5)).astype(np.uint16)]
+    lin = np.asarray(linear, np.float32)
+    ok = scratch is not None and scratch.shape == lin.shape and scratch.dtype == np.float32 \
+        and scratch.flags.writeable and scratch.flags.c_contiguous
+    idx = np.clip(lin, 0.0, 1.0, out=scratch if ok else None)
+    idx *= np.float32(65535.0)
+    idx += np.float32(0.5)
+    return _SRGB_LUT[idx.astype(np.uint16)]
 
 
-def _wb_gains(cap: Capture, cfa: np.ndarray, opts: DevelopOptions) -> np.ndarray:
+def _wb_gains(cap: Capture, opts: DevelopOptions) -> np.ndarray:
     method = opts.white_balance
     kw = dict(opts.wb_kwargs)
     if method == "as_shot":
@@ -333,7 +376,7 @@ def _wb_gains(cap: Capture, cfa: np.ndarray, opts: DevelopOptions) -> np.ndarray
         return white_balance_gains(None, method, **kw)
     if method in ("manual",):
         return white_balance_gains(None, method, **kw)
-    half = superpixel(cfa, cap.cfa_pattern)
+    half = cap.half_rgb()
     if method == "chart":
         if "box" in kw:
             r0, r1, c0, c1 = kw.pop("box")
@@ -346,12 +389,8 @@ def _wb_gains(cap: Capture, cfa: np.ndarray, opts: DevelopOptions) -> np.ndarray
 
 def _develop(cap: Capture, opts: DevelopOptions) -> Capture:
     t0 = time.perf_counter()
-    cfa = cap.normalised_mosaic()
-    gains = _wb_gains(cap, cfa, opts)
-    g = gains.astype(np.float32)[pattern_codes(cap.cfa_pattern)]
-    for dy in (0, 1):
-        for dx in (0, 1):
-            cfa[dy::2, dx::2] *= g[dy, dx]
+    gains = _wb_gains(cap, opts)  # estimates use a half-size image
+    cfa = cap.normalised_mosaic(gains)
     np.clip(cfa, 0.0, 1.0, out=cfa)  # dcraw-style: white-balanced highlights clip to white
     t1 = time.perf_counter()
     rgb = _demosaic(cfa, cap.cfa_pattern, opts.demosaic)
@@ -361,11 +400,11 @@ def _develop(cap: Capture, opts: DevelopOptions) -> Capture:
         cap.ccm if opts.ccm is None else opts.ccm, float)
     if ccm.shape != (3, 3):
         raise ConfigError(f"CCM must be 3×3, got {ccm.shape}", field="ccm")
-    m = (ccm.T * float(opts.gain)).astype(np.float32)
-    rows, cols, _ = rgb.shape
-    lin = (rgb.reshape(-1, 3) @ m).reshape(rows, cols, 3)
+    import cv2
+
+    lin = cv2.transform(np.ascontiguousarray(rgb, np.float32), (ccm * float(opts.gain)).astype(np.float32))
+    srgb = encode_srgb8(lin, scratch=rgb)
     del rgb
-    srgb = encode_srgb8(lin)
     t3 = time.perf_counter()
     meta = dict(cap.meta)
     meta["develop"] = opts.describe()
