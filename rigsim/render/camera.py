@@ -1,10 +1,11 @@
 """Camera rays in water: pinhole lens behind a dome or a flat port.
 
 The lens is a pinhole at the entrance pupil (``Camera.position_m``) with the in-air
-field of view of the sensor and focal length (no depth of field).  Image axes:
-column → ``right = up × forward`` (the package's diver's frame: x right, y up,
-z forward), row → −up; row 0 is the top.  Pixels are square: the horizontal
-field of view comes from the sensor width, the vertical one from the image aspect.
+field of view of the sensor and focal length (no depth of field).  Image axes (as
+:mod:`rigsim.scene.targets` and Mitsuba): column → ``right = forward × up``, row →
+−up; row 0 is the top.  The horizontal field of view comes from the sensor width,
+the vertical one from the sensor height (an image whose aspect differs from the
+sensor's has non-square pixels).
 
 Ports (exact ray geometry, no paraxial approximation):
 
@@ -26,6 +27,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from rigsim.errors import ConfigError
 from rigsim.render.variant import mitsuba
 from rigsim.scene.types import Camera, unit
 from rigsim.water.kd import WATER_INDEX
@@ -36,20 +38,20 @@ mi, dr = mitsuba()
 
 
 def camera_frame(camera: Camera) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(forward, right, up) unit vectors; ``up`` re-orthogonalised to ``forward``."""
+    """(forward, right, up) unit vectors: ``up`` made orthogonal to ``forward``, ``right = forward × up``."""
     f = unit(camera.forward)
-    r = np.cross(np.asarray(camera.up, float), f)
-    if np.linalg.norm(r) < 1e-9:
-        raise ValueError("camera up is parallel to forward")
-    r = r / np.linalg.norm(r)
-    u = np.cross(f, r)
-    return f, r, u
+    u = np.asarray(camera.up, float)
+    u = u - f * np.dot(u, f)
+    if np.linalg.norm(u) < 1e-9:
+        raise ConfigError("camera up is parallel to its forward direction", field="camera.up")
+    u = u / np.linalg.norm(u)
+    return f, np.cross(f, u), u
 
 
 def tan_half_fov(camera: Camera, width: int, height: int) -> tuple[float, float]:
-    """tan of the half field of view in air, horizontal and vertical (square pixels)."""
-    tx = camera.sensor_width_mm / (2.0 * camera.focal_length_mm)
-    return tx, tx * height / width
+    """tan of the half field of view in air, horizontal and vertical."""
+    return (camera.sensor_width_mm / (2.0 * camera.focal_length_mm),
+            camera.sensor_height_mm / (2.0 * camera.focal_length_mm))
 
 
 def flat_port_angle_water(theta_air_rad, n_water: float = WATER_INDEX):

@@ -47,7 +47,7 @@ class BeamPointEmitter(mi.Emitter):
         mi.Emitter.__init__(self, props)
         self.m_flags = mi.EmitterFlags.DeltaPosition
         self.configured = False
-        if props.has_property("position"):
+        if "position" in props:
             beam = BeamPattern(kind="soft-cone",
                                beam_angle_deg=float(props.get("beam_angle_deg", 100.0)),
                                edge_exponent=float(props.get("edge_exponent", 2.0)))

@@ -26,7 +26,7 @@ from rigsim.errors import ConfigError
 from rigsim.render.emitter_plugin import make_emitter
 from rigsim.render.phase_plugin import WaterPhaseFunction, make_phase
 from rigsim.render.spectra import regular_dict, spectrum_dict
-from rigsim.render.targets import Surface, target_surfaces
+from rigsim.render.targets import MitsubaSurface, mitsuba_surfaces
 from rigsim.render.variant import mitsuba
 from rigsim.scene.types import Scene
 
@@ -48,7 +48,7 @@ class MitsubaScene:
 
     scene: object
     medium: object | None
-    surfaces: list[Surface]
+    surfaces: list[MitsubaSurface]
     shape_ids: dict[str, int] = field(default_factory=dict)  # Mitsuba shape id → object id
     mode: str = "full"
 
@@ -110,7 +110,7 @@ def build_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: 
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}")
     R = world_radius(scene)
-    surfaces = target_surfaces(scene.camera, scene.targets, world_radius_m=R)
+    surfaces = mitsuba_surfaces(scene.camera, scene.targets)
     d: dict = {"type": "scene",
                "integrator": {"type": "volpath", "max_depth": int(max_depth), "rr_depth": int(rr_depth)}}
     has_water = scene.water is not None and mode != "clear"

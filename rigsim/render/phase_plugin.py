@@ -153,7 +153,7 @@ class WaterPhaseFunction(mi.PhaseFunction):
         mi.PhaseFunction.__init__(self, props)
         self.m_flags = mi.PhaseFunctionFlags.Anisotropic
         self.tables: PhaseTables | None = None
-        if props.has_property("water"):
+        if "water" in props:
             from rigsim.water import preset
 
             w = preset(str(props["water"]))

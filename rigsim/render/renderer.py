@@ -253,7 +253,7 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
     scene
         Camera, lights, targets and water (``water=None``: no water).
     width, height
-        Image size (pixels); pixels are square (horizontal FOV from the sensor).
+        Image size (pixels); the field of view is the sensor's (keep its aspect).
     spp
         Paths per pixel (each carries four wavelengths).
     seed
@@ -301,7 +301,7 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
     if abs(width / height - scene.camera.sensor_width_mm / scene.camera.sensor_height_mm) > 0.02 * width / height:
         warnings.warn(f"image aspect {width}x{height} differs from the sensor's "
                       f"{scene.camera.sensor_width_mm}x{scene.camera.sensor_height_mm} mm; "
-                      "the horizontal field of view is kept", RuntimeWarning, stacklevel=2)
+                      "pixels will not be square", RuntimeWarning, stacklevel=2)
 
     groups = {"continuous": [l for l in scene.lights if l.kind == "continuous"],
               "strobe": [l for l in scene.lights if l.kind == "strobe"]}

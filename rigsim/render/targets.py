@@ -1,25 +1,16 @@
-"""Target geometry for the renderer: surfaces in metres with spectral reflectance.
+"""Target surfaces as Mitsuba shapes.
 
-Every target is placed in the camera's frame: centred on the optical axis at
-``Target.distance_m`` from the entrance pupil, facing the camera, rotated by
-``tilt_deg`` about the axis.  All surfaces are Lambertian (two-sided).
+The geometry and reflectances of targets are defined once, in
+:mod:`rigsim.scene.targets` (``target_surfaces(target, camera)``: placement,
+ColorChecker layout, reflectance data, object ids), so that the renderer, the
+preview and the metrics' target layouts agree.  This module only turns those
+surfaces into Mitsuba ``rectangle``/``disk``/``obj``/``ply`` shapes and numbers them
+across all targets (object id 1… in scene order; 0 = nothing).
 
-* ``colorchecker`` — a ColorChecker Classic: a 279.4 × 215.9 mm black board with
-  4 × 6 patches of 40 mm at a 46 mm pitch, all scaled so that the board is
-  ``size_m`` wide; patch reflectances from ``colour.SDS_COLOURCHECKERS["ColorChecker
-  N Ohta"]`` (380–780 nm, ends held), the board has the reflectance of the chart's
-  own black patch.  Patch 1 (dark skin) is at the top left as seen by the camera.
-* ``white-disk`` / ``black-disk`` — a disk of diameter ``size_m``.
-* ``slanted-edge`` — a ``size_m`` square, left half white, right half black, the
-  edge through the centre, slanted by ``tilt_deg``.
-* ``bottom`` — a sand plane normal to the camera's ``up``: through the point at
-  ``distance_m`` on the axis if the camera looks down, else ``distance_m`` below
-  the pupil; it extends (almost) to the edge of the water volume.
-* ``mesh`` — an OBJ/PLY file, centred on the axis, scaled so that its largest
-  bounding-box extent is ``size_m``; its x, y, z axes along the camera's right, up,
-  forward.
-
-Reflectances default (when a target gives none) to :data:`DEFAULT_REFLECTANCE`.
+If :mod:`rigsim.scene.targets` is not available, a minimal built-in version with the
+same conventions is used (right = forward × up; chart 279.4 × 215.9 mm, 40 mm
+patches at 45 mm, 4 % black body; disks 90 % / 4 %; bottom ``distance_m`` below
+the pupil, normal +y).
 """
 
 from __future__ import annotations
@@ -34,23 +25,13 @@ from rigsim.render.camera import camera_frame
 from rigsim.render.variant import mitsuba
 from rigsim.scene.types import Camera, Target
 
-__all__ = ["Surface", "target_surfaces", "colorchecker_reflectances", "DEFAULT_REFLECTANCE",
-           "TARGET_KINDS", "CHART_BOARD_MM", "CHART_PATCH_MM", "CHART_PITCH_MM"]
+__all__ = ["MitsubaSurface", "mitsuba_surfaces"]
 
 mi, dr = mitsuba()
 
-#: Flat reflectance used when a target has none: by kind.
-DEFAULT_REFLECTANCE = {"white-disk": 0.9, "black-disk": 0.03, "slanted-edge-white": 0.9,
-                       "slanted-edge-black": 0.03, "bottom": 0.3, "mesh": 0.5}
-TARGET_KINDS = ("colorchecker", "black-disk", "white-disk", "slanted-edge", "bottom", "mesh")
-CHART_BOARD_MM = (279.4, 215.9)
-CHART_PATCH_MM = 40.0
-CHART_PITCH_MM = 46.0
-_CHART_PATCH_OFFSET_MM = 0.5  # patches stand proud of the board (no coplanar faces)
-
 
 @dataclass(frozen=True)
-class Surface:
+class MitsubaSurface:
     """One Mitsuba shape of a target.
 
     Attributes
@@ -60,9 +41,9 @@ class Surface:
     shape
         Mitsuba dict of the shape (without BSDF or media).
     wavelength_nm, reflectance
-        Spectral reflectance samples.
+        Spectral reflectance samples (0…1).
     label
-        Human-readable name (for the object-id legend).
+        Human-readable name for the object-id legend.
     target_index
         Index of the target in ``Scene.targets``.
     """
@@ -75,148 +56,134 @@ class Surface:
     target_index: int
 
 
-def colorchecker_reflectances() -> list[tuple[str, np.ndarray, np.ndarray]]:
-    """(name, wavelength_nm, reflectance) of the 24 patches, in chart order."""
-    import colour
-
-    sds = colour.SDS_COLOURCHECKERS["ColorChecker N Ohta"]
-    return [(name, np.asarray(sd.wavelengths, float), np.asarray(sd.values, float)) for name, sd in sds.items()]
+def _transform(m) -> "mi.ScalarTransform4f":
+    return mi.ScalarTransform4f(np.asarray(m, float).tolist())
 
 
-def _frame(camera: Camera, tilt_deg: float):
-    f, r, u = camera_frame(camera)
-    t = np.radians(tilt_deg)
-    r2 = np.cos(t) * r + np.sin(t) * u
-    u2 = -np.sin(t) * r + np.cos(t) * u
-    return f, r2, u2
+def _check_target(t: Target, i: int) -> None:
+    if not (np.isfinite(t.distance_m) and t.distance_m > 0):
+        raise ConfigError(f"distance must be > 0 m, got {t.distance_m}", field=f"targets[{i}].distance_m",
+                          allowed="> 0")
+    if not (np.isfinite(t.size_m) and t.size_m > 0):
+        raise ConfigError(f"size must be > 0 m, got {t.size_m}", field=f"targets[{i}].size_m", allowed="> 0")
 
 
-def _plane_transform(centre, ax, ay, normal) -> "mi.ScalarTransform4f":
-    """Affine map of Mitsuba's unit rectangle/disk (x, y ∈ [−1, 1], normal +z)."""
-    m = np.eye(4)
-    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = ax, ay, normal, centre
-    return mi.ScalarTransform4f(m.tolist())
+def _scene_target_surfaces():
+    try:
+        from rigsim.scene.targets import target_surfaces
+    except ImportError:
+        return None
+    return target_surfaces
 
 
-def _rect(centre, right, up, normal, half_w, half_h) -> dict:
-    # right × up must equal the normal for a proper (non-mirroring) transform
-    ax, ay = np.asarray(right) * half_w, np.asarray(up) * half_h
-    if np.dot(np.cross(ax, ay), normal) < 0:
-        ay = -ay
-    return {"type": "rectangle", "to_world": _plane_transform(centre, ax, ay, normal)}
-
-
-def _disk(centre, right, up, normal, radius) -> dict:
-    d = _rect(centre, right, up, normal, radius, radius)
-    d["type"] = "disk"
-    return d
-
-
-def _reflectance(target: Target, default_key: str):
-    if target.reflectance:
-        wl = np.asarray(target.reflectance_wavelength_nm, float)
-        r = np.asarray(target.reflectance, float)
-        if wl.shape != r.shape or wl.size == 0:
-            raise ConfigError("reflectance and reflectance_wavelength_nm differ in length",
-                              field=f"target.{target.kind}.reflectance")
-        if wl.size == 1:
-            return np.array([360.0, 830.0]), np.full(2, r[0])
-        return wl, r
-    v = DEFAULT_REFLECTANCE[default_key]
-    return np.array([360.0, 830.0]), np.array([v, v])
-
-
-def target_surfaces(camera: Camera, targets, *, world_radius_m: float) -> list[Surface]:
-    """The Mitsuba surfaces of all targets, in order (object ids follow this order, from 1)."""
-    out: list[Surface] = []
-    pupil = np.asarray(camera.position_m, float)
+def mitsuba_surfaces(camera: Camera, targets) -> list[MitsubaSurface]:
+    """The Mitsuba shapes of all targets; object id ``k`` is ``result[k-1]``."""
+    out: list[MitsubaSurface] = []
+    scene_surfaces = _scene_target_surfaces()
     for ti, t in enumerate(targets):
-        if t.kind not in TARGET_KINDS:
-            raise ConfigError(f"unknown target kind {t.kind!r}", field="target.kind",
-                              allowed=", ".join(TARGET_KINDS))
-        if not (np.isfinite(t.distance_m) and t.distance_m > 0):
-            raise ConfigError(f"target distance must be > 0 m, got {t.distance_m}", field="target.distance_m",
-                              allowed="> 0")
-        if not (np.isfinite(t.size_m) and t.size_m > 0):
-            raise ConfigError(f"target size must be > 0 m, got {t.size_m}", field="target.size_m", allowed="> 0")
-        f, r, u = _frame(camera, t.tilt_deg)
-        centre = pupil + t.distance_m * f
-        n = -f
-        tag = f"t{ti}"
-        if t.kind == "colorchecker":
-            s = t.size_m / (CHART_BOARD_MM[0] / 1000.0)
-            bw, bh = CHART_BOARD_MM[0] / 2000.0 * s, CHART_BOARD_MM[1] / 2000.0 * s
-            patches = colorchecker_reflectances()
-            board_wl, board_r = patches[-1][1], patches[-1][2]
-            out.append(Surface(f"{tag}_board", _rect(centre, r, u, n, bw, bh), board_wl, board_r,
-                               f"target {ti} colorchecker board", ti))
-            pitch, half = CHART_PITCH_MM / 1000.0 * s, CHART_PATCH_MM / 2000.0 * s
-            c0 = centre - _CHART_PATCH_OFFSET_MM / 1000.0 * s * f
-            for k, (name, wl, refl) in enumerate(patches):
-                row, col = divmod(k, 6)
-                pc = c0 + (col - 2.5) * pitch * r + (1.5 - row) * pitch * u
-                out.append(Surface(f"{tag}_patch{k + 1:02d}", _rect(pc, r, u, n, half, half), wl, refl,
-                                   f"target {ti} colorchecker patch {k + 1} {name}", ti))
-        elif t.kind in ("white-disk", "black-disk"):
-            wl, refl = _reflectance(t, t.kind)
-            out.append(Surface(f"{tag}_disk", _disk(centre, r, u, n, t.size_m / 2), wl, refl,
-                               f"target {ti} {t.kind}", ti))
-        elif t.kind == "slanted-edge":
-            h = t.size_m / 2
-            wl_w, r_w = _reflectance(t, "slanted-edge-white")
-            v = DEFAULT_REFLECTANCE["slanted-edge-black"]
-            out.append(Surface(f"{tag}_white", _rect(centre - r * h / 2, r, u, n, h / 2, h), wl_w, r_w,
-                               f"target {ti} slanted-edge white", ti))
-            out.append(Surface(f"{tag}_black", _rect(centre + r * h / 2, r, u, n, h / 2, h),
-                               np.array([360.0, 830.0]), np.array([v, v]), f"target {ti} slanted-edge black", ti))
-        elif t.kind == "bottom":
-            f0, r0, u0 = camera_frame(camera)
-            up = u0 if abs(np.dot(f0, np.asarray(camera.up, float))) > 0.999 else \
-                np.asarray(camera.up, float) / np.linalg.norm(camera.up)
-            if np.dot(f0, up) < -0.05:
-                c = pupil + t.distance_m * f0
+        _check_target(t, ti)
+        pieces = scene_surfaces(t, camera) if scene_surfaces is not None else _builtin_surfaces(t, camera)
+        for p in pieces:
+            if p.shape in ("rectangle", "disk"):
+                shape = {"type": p.shape, "to_world": _transform(p.to_world)}
+            elif p.shape == "mesh":
+                ext = Path(p.mesh_path).suffix.lower()[1:]
+                if ext not in ("obj", "ply"):
+                    raise ConfigError(f"mesh must be .obj or .ply, got {p.mesh_path!r}",
+                                      field=f"targets[{ti}].mesh_path", allowed=".obj, .ply")
+                shape = {"type": ext, "filename": str(p.mesh_path), "to_world": _transform(p.to_world)}
             else:
-                c = pupil - t.distance_m * up
-            # in-plane axes: horizontal projection of forward and the right vector
-            ax = f0 - np.dot(f0, up) * up
-            if np.linalg.norm(ax) < 1e-6:
-                ax = u0 - np.dot(u0, up) * up
-            ax = ax / np.linalg.norm(ax)
-            ay = np.cross(up, ax)
-            half = 0.5 * world_radius_m
-            wl, refl = _reflectance(t, "bottom")
-            out.append(Surface(f"{tag}_bottom", _rect(c, ax, ay, up, half, half), wl, refl,
-                               f"target {ti} bottom", ti))
-        elif t.kind == "mesh":
-            out.append(_mesh_surface(t, ti, tag, centre, f, r, u))
+                raise ConfigError(f"unknown surface shape {p.shape!r}", field=f"targets[{ti}]")
+            key = f"t{ti}_{len(out) + 1:03d}"
+            out.append(MitsubaSurface(key, shape, np.asarray(p.wavelength_nm, float),
+                                      np.asarray(p.reflectance, float), f"target {ti} {t.kind}: {p.name}", ti))
     return out
 
 
-def _mesh_surface(t: Target, ti: int, tag: str, centre, f, r, u) -> Surface:
-    if not t.mesh_path:
-        raise ConfigError("a mesh target needs mesh_path", field="target.mesh_path")
-    p = Path(t.mesh_path)
-    ext = p.suffix.lower()
-    if ext not in (".obj", ".ply"):
-        raise ConfigError(f"mesh must be .obj or .ply, got {p.name!r}", file=p, field="target.mesh_path",
-                          allowed=".obj, .ply")
-    if not p.is_file():
-        raise ConfigError("mesh file not found", file=p, field="target.mesh_path")
-    try:
-        raw = mi.load_dict({"type": ext[1:], "filename": str(p)})
-    except Exception as e:  # noqa: BLE001 - Mitsuba's parse errors are long; keep the first line
-        raise ConfigError(f"cannot read mesh: {str(e).splitlines()[0][:200]}", file=p,
-                          field="target.mesh_path") from None
-    bb = raw.bbox()
-    lo, hi = np.array(bb.min, float), np.array(bb.max, float)
-    ext_max = float(np.max(hi - lo))
-    if not np.isfinite(ext_max) or ext_max <= 0:
-        raise ConfigError("mesh has no extent", file=p, field="target.mesh_path")
-    s = t.size_m / ext_max
-    mid = 0.5 * (lo + hi)
+# ---------------------------------------------------------------------------------------
+# Built-in fallback (same conventions as rigsim.scene.targets)
+# ---------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class _Piece:
+    name: str
+    shape: str
+    to_world: np.ndarray
+    wavelength_nm: np.ndarray
+    reflectance: np.ndarray
+    mesh_path: str | None = None
+
+
+_WL = np.array([360.0, 830.0])
+
+
+def _flat(v: float) -> np.ndarray:
+    return np.array([v, v])
+
+
+def _affine(centre, ax, ay, az) -> np.ndarray:
     m = np.eye(4)
-    m[:3, 0], m[:3, 1], m[:3, 2] = r * s, u * s, f * s
-    m[:3, 3] = centre - m[:3, :3] @ mid
-    wl, refl = _reflectance(t, "mesh")
-    shape = {"type": ext[1:], "filename": str(p), "to_world": mi.ScalarTransform4f(m.tolist())}
-    return Surface(f"{tag}_mesh", shape, wl, refl, f"target {ti} mesh {p.name}", ti)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = ax, ay, az, centre
+    return m
+
+
+def _builtin_surfaces(t: Target, camera: Camera) -> list[_Piece]:
+    fwd, right, up = camera_frame(camera)
+    pupil = np.asarray(camera.position_m, float)
+    toward = -fwd
+    a = np.radians(t.tilt_deg)
+    u = np.cos(a) * right + np.sin(a) * up
+    v = -np.sin(a) * right + np.cos(a) * up
+    c = pupil + t.distance_m * fwd
+    s = float(t.size_m)
+
+    def refl(default):
+        if t.reflectance:
+            wl = np.asarray(t.reflectance_wavelength_nm, float)
+            r = np.asarray(t.reflectance, float)
+            return (wl, r) if wl.size > 1 else (_WL, np.full(2, r[0]))
+        return _WL, _flat(default)
+
+    def rect(name, centre, w, h, wl_r):
+        return _Piece(name, "rectangle", _affine(centre, w / 2 * u, h / 2 * v, toward), *wl_r)
+
+    if t.kind == "colorchecker":
+        import colour
+
+        k = s / 0.2794
+        out = [rect("chart", c, s, 0.2159 * k, (_WL, _flat(0.04)))]
+        sds = colour.SDS_COLOURCHECKERS["ColorChecker N Ohta"]
+        for i, (name, sd) in enumerate(sds.items()):
+            r, col = divmod(i, 6)
+            pc = c + k * ((col - 2.5) * 0.045 * u + (1.5 - r) * 0.045 * v) + 0.0005 * toward
+            out.append(rect(name, pc, 0.04 * k, 0.04 * k, (np.asarray(sd.wavelengths, float),
+                                                           np.asarray(sd.values, float))))
+        return out
+    if t.kind in ("white-disk", "black-disk"):
+        wl, r = refl(0.9 if t.kind == "white-disk" else 0.04)
+        return [_Piece("disk", "disk", _affine(c, s / 2 * u, s / 2 * v, toward), wl, r)]
+    if t.kind == "slanted-edge":
+        return [rect("black", c - s / 4 * u, s / 2, s, (_WL, _flat(0.04))),
+                rect("white", c + s / 4 * u, s / 2, s, (_WL, _flat(0.9)))]
+    if t.kind == "bottom":
+        wu = np.array([0.0, 1.0, 0.0])
+        bu = right - wu * np.dot(right, wu)
+        bu = bu / np.linalg.norm(bu) if np.linalg.norm(bu) > 1e-6 else np.array([1.0, 0.0, 0.0])
+        bv = np.cross(wu, bu)
+        wl, r = refl(0.3)
+        return [_Piece("bottom", "rectangle", _affine(pupil - t.distance_m * wu, s / 2 * bu, s / 2 * bv, wu),
+                       wl, r)]
+    if t.kind == "mesh":
+        if not t.mesh_path or not Path(t.mesh_path).is_file():
+            raise ConfigError("mesh file not found", file=t.mesh_path, field="target.mesh_path")
+        raw = mi.load_dict({"type": Path(t.mesh_path).suffix.lower()[1:], "filename": str(t.mesh_path)})
+        bb = raw.bbox()
+        lo, hi = np.array(bb.min, float), np.array(bb.max, float)
+        k = s / float(np.max(hi - lo))
+        rot = np.stack([u, v, toward], axis=1)
+        m = np.eye(4)
+        m[:3, :3] = k * rot
+        m[:3, 3] = c - k * rot @ ((lo + hi) / 2)
+        wl, r = refl(0.18)
+        return [_Piece("mesh", "mesh", m, wl, r, str(t.mesh_path))]
+    raise ConfigError(f"unknown target kind {t.kind!r}", field="target.kind",
+                      allowed="colorchecker, black-disk, white-disk, slanted-edge, bottom, mesh")
