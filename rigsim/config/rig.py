@@ -244,7 +244,8 @@ def _parse_light(s: Section, index: int, camera: Camera, base: Path) -> Light:
 
 def _in_table(s: Section, key: str, exc: ConfigError) -> ConfigError:
     """Re-home an error from the light package (bare field, or a data file) in this rig table."""
-    if exc.file == s.file and exc.field and exc.field.startswith(s.path + "."):
+    if exc.file == (str(s.file) if s.file is not None else None) and exc.field \
+            and exc.field.startswith(s.path + "."):
         return exc
     field = key if exc.file is not None or not exc.field or exc.field.startswith("--") else exc.field
     where = f"{exc.file}: " if exc.file is not None else ""

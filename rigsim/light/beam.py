@@ -10,10 +10,11 @@ returns.
 Sampling: :func:`sample_beam_direction` draws directions with density
 proportional to ``f``, for light tracing / next-event estimation in the
 renderer.  The density is represented exactly as piecewise constant per solid
-angle on a fine grid in θ (2048 cells, plus the table's nodes), and the pdf
+angle on a fine grid in θ (8192 cells, plus the table's nodes), and the pdf
 returned is the density actually sampled (so estimators stay unbiased); it
-equals ``f(θ)/Ω_beam`` to within the cell variation of f (< 1e-3 relative for
-the shipped beams).
+equals ``f(θ)/Ω_beam`` to within the variation of f across one cell
+(Δθ ≈ 0.011°): better than 0.1 % for a 100° soft cone, and within 1 % wherever
+f exceeds 1 % of its peak for steep cones (p = 4) and tables falling to zero.
 
 Local frame: the beam axis is local +z; :func:`local_to_world` maps local
 directions to world directions given the light's aim.
@@ -41,7 +42,7 @@ __all__ = [
     "local_to_world",
 ]
 
-_N_CELLS = 2048
+_N_CELLS = 8192
 _GL_X, _GL_W = np.polynomial.legendre.leggauss(8)
 
 
@@ -156,7 +157,7 @@ def _tables(beam: BeamPattern) -> tuple[np.ndarray, np.ndarray, np.ndarray, floa
 def beam_solid_angle_sr(beam: BeamPattern) -> float:
     """Solid-angle integral of the beam, ``Ω = ∫ f dω = 2π ∫ f(θ) sin θ dθ`` (sr).
 
-    Integrated by 8-point Gauss–Legendre on 2048 cells in θ (and on the table's
+    Integrated by 8-point Gauss–Legendre on 8192 cells in θ (and on the table's
     own nodes for tabulated beams); relative error < 1e-10 for the soft cone.
 
     Examples
