@@ -43,12 +43,17 @@ class Exposure:
         The lens (f-number, transmittance, vignetting).
     temperature_c
         Sensor temperature (°C) for the dark current; ``None``: the sensor's reference.
+    flash_scale
+        Fraction of the strobes' configured output fired (what a strobe's power setting
+        or TTL chooses; 1 = as in the rig file).  It scales the render's ``flash`` layer;
+        a flash is shorter than any shutter time, so the shutter does not scale it.
     """
 
     exposure_time_s: float
     iso: float
     lens: Lens = Lens()
     temperature_c: float | None = None
+    flash_scale: float = 1.0
 
     def __post_init__(self):
         if not (np.isfinite(self.exposure_time_s) and 0 < self.exposure_time_s <= 3600):
@@ -56,11 +61,15 @@ class Exposure:
                               field="shutter", allowed="(0, 3600] s")
         if not (np.isfinite(self.iso) and self.iso > 0):
             raise ConfigError(f"ISO must be > 0, got {self.iso}", field="iso", allowed="> 0")
+        if not (np.isfinite(self.flash_scale) and self.flash_scale >= 0):
+            raise ConfigError(f"flash scale must be >= 0, got {self.flash_scale}", field="flash_scale",
+                              allowed=">= 0 (1 = the rig's strobe output)")
 
     def describe(self) -> dict:
         return {"exposure_time_s": self.exposure_time_s, "iso": self.iso,
                 "f_number": self.lens.f_number, "lens_transmittance": self.lens.transmittance,
-                "vignetting": self.lens.vignetting, "temperature_c": self.temperature_c}
+                "vignetting": self.lens.vignetting, "temperature_c": self.temperature_c,
+                "flash_scale": self.flash_scale}
 
 
 @dataclass(frozen=True)
@@ -203,23 +212,39 @@ class Capture:
 def mean_electrons_rgb(spectral_image, sensor: Sensor, exposure: Exposure) -> np.ndarray:
     """(rows, cols, 3) float32 mean photo-electrons per pixel if each pixel had each CFA filter.
 
-    Camera equation (see :mod:`rigsim.sensor.optics`) with the sensor's pixel area;
-    cos⁴ vignetting if ``exposure.lens.vignetting`` and the render states ``meta['fov_deg']``.
+    Camera equation (see :mod:`rigsim.sensor.optics`) with the sensor's pixel area, applied
+    to the radiant exposure: continuous radiance × shutter time plus ``flash_scale`` × the
+    render's ``flash`` layer (strobes).  cos⁴ vignetting if ``exposure.lens.vignetting`` and
+    the render states its field of view (``meta['fov_water_x_deg']`` or ``meta['fov_deg']``).
     """
     si = spectral_image
+    e = _electrons_parts(si, sensor, exposure)
+    return (e[0] * np.float32(exposure.exposure_time_s) + e[1] * np.float32(exposure.flash_scale)).astype(np.float32)
+
+
+def _electrons_parts(si, sensor: Sensor, exposure: Exposure) -> tuple[np.ndarray, np.ndarray]:
+    """Electrons per second of continuous light and per full flash, each (rows, cols, 3)."""
     qe = sensor.qe_at(si.wavelength_nm)
     m = electrons_per_radiance(si.wavelength_nm, si.bandwidth_nm, qe, lens=exposure.lens,
-                               pixel_area_m2=sensor.pixel_area_m2, exposure_time_s=exposure.exposure_time_s)
-    rad = np.asarray(si.radiance)
-    rows, cols, nb = rad.shape
-    e = (rad.reshape(-1, nb).astype(np.float64) @ m).reshape(rows, cols, 3)
+                               pixel_area_m2=sensor.pixel_area_m2, exposure_time_s=1.0)
+    rows, cols, nb = np.shape(si.radiance)
+
+    def apply(layer):
+        if layer is None:
+            return np.zeros((rows, cols, 3), np.float32)
+        return (np.asarray(layer).reshape(-1, nb).astype(np.float64) @ m).reshape(rows, cols, 3).astype(np.float32)
+
+    cont, flash = apply(si.radiance), apply(si.layers.get("flash"))
     if exposure.lens.vignetting:
-        fov = (si.meta or {}).get("fov_deg")
+        meta = si.meta or {}
+        fov = meta.get("fov_water_x_deg", meta.get("fov_deg"))
         if fov is not None:
-            e *= cos4_map((rows, cols), float(fov))[..., None]
+            v = cos4_map((rows, cols), float(fov))[..., None]
+            cont *= v
+            flash *= v
         else:
-            log.warning("vignetting asked for but the render has no meta['fov_deg']; not applied")
-    return e.astype(np.float32)
+            log.warning("vignetting asked for but the render states no field of view; not applied")
+    return cont, flash
 
 
 def _resampled_mosaic(img: np.ndarray, pattern: str, shape) -> np.ndarray:
@@ -251,8 +276,14 @@ def _resampled_mosaic(img: np.ndarray, pattern: str, shape) -> np.ndarray:
 
 def auto_exposure(spectral_image, sensor: Sensor, *, lens: Lens = Lens(), iso: float | None = None,
                   percentile: float = 99.0, target: float = 0.8,
-                  temperature_c: float | None = None) -> Exposure:
-    """Shutter time that puts the ``percentile`` of the raw signal at ``target`` × saturation.
+                  temperature_c: float | None = None, flash_shutter_s: float = 1 / 125) -> Exposure:
+    """Exposure that puts the ``percentile`` of the raw signal at ``target`` × saturation.
+
+    Continuous light only: the shutter time is chosen.  With strobes (a ``flash`` layer)
+    the shutter stays at ``flash_shutter_s`` (a typical sync speed) and, as a strobe's TTL
+    does, the flash output is scaled down (``flash_scale`` ≤ 1); if full power is not enough,
+    the ISO is raised (up to the sensor's highest tabulated ISO).  If the continuous light
+    alone is too bright at the sync speed, the shutter is shortened and the flash kept off.
 
     Parameters
     ----------
@@ -262,19 +293,48 @@ def auto_exposure(spectral_image, sensor: Sensor, *, lens: Lens = Lens(), iso: f
         Fraction (0–1] of the saturation electrons (:meth:`Sensor.saturation_e`).
     iso
         ISO to use (default: the sensor's base ISO).
+    flash_shutter_s
+        Shutter time used with strobes (s).
     """
     if not (0 < percentile <= 100) or not (0 < target <= 1):
         raise ConfigError("auto-exposure needs 0 < percentile <= 100 and 0 < target <= 1",
                           field="--auto-exposure")
     iso = sensor.base_iso if iso is None else iso
     probe = Exposure(1.0, iso, lens, temperature_c)
-    e1 = mosaic(mean_electrons_rgb(spectral_image, sensor, probe), sensor.cfa_pattern)
-    level = float(np.percentile(e1, percentile))
-    if not np.isfinite(level) or level <= 0:
+    cont, flash = (mosaic(x, sensor.cfa_pattern) for x in _electrons_parts(spectral_image, sensor, probe))
+    goal = target * sensor.saturation_e(iso)
+    has_flash = "flash" in spectral_image.layers and float(flash.max()) > 0
+
+    def level(t, fs):
+        return float(np.percentile(cont * t + flash * fs, percentile))
+
+    if not has_flash or level(flash_shutter_s, 0.0) >= goal:
+        lv = level(1.0, 0.0)
+        if not np.isfinite(lv) or lv <= 0:
+            raise ConfigError("auto-exposure: the image is black", field="--auto-exposure",
+                              allowed="a render with light, or a fixed --shutter")
+        t = float(np.clip(goal / lv, 1e-6, 3600.0))
+        return Exposure(t, iso, lens, temperature_c, flash_scale=0.0 if has_flash else 1.0)
+    t = flash_shutter_s
+    if level(t, 1.0) >= goal:  # TTL: bisection on the flash output (the percentile is monotone in it)
+        lo, hi = 0.0, 1.0
+        for _ in range(40):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if level(t, mid) < goal else (lo, mid)
+        return Exposure(t, iso, lens, temperature_c, flash_scale=0.5 * (lo + hi))
+    # full power is not enough: raise the ISO (electrons stay, saturation electrons drop)
+    lv = level(t, 1.0)
+    if lv <= 0:
         raise ConfigError("auto-exposure: the image is black", field="--auto-exposure",
                           allowed="a render with light, or a fixed --shutter")
-    t = target * sensor.saturation_e(iso) / level
-    return Exposure(float(np.clip(t, 1e-6, 3600.0)), iso, lens, temperature_c)
+    best = iso
+    for s_ in sensor.iso_settings:
+        if s_.iso < iso:
+            continue
+        best = s_.iso
+        if target * sensor.saturation_e(s_.iso) <= lv:
+            break
+    return Exposure(t, best, lens, temperature_c, flash_scale=1.0)
 
 
 def capture(spectral_image, sensor: Sensor, exposure: Exposure, *, seed: int = 0,

@@ -1,0 +1,60 @@
+"""Strobes: the flash layer does not scale with the shutter; TTL auto-exposure."""
+
+import numpy as np
+import pytest
+
+from rigsim.sensor import load_sensor
+from rigsim.sensor.cfa import mosaic
+from rigsim.sensor.pipeline import Exposure, auto_exposure, mean_electrons_rgb
+from rigsim.spectral_image import SpectralImage
+
+WL = np.arange(400.0, 701.0, 10.0)
+
+
+def _si(cont: float, flash: float | None, shape=(32, 48)):
+    rng = np.random.default_rng(0)
+    pattern = rng.uniform(0.2, 1.0, shape + (1,)) * np.ones(len(WL))
+    layers = {} if flash is None else {"flash": (pattern * flash).astype(np.float32)}
+    return SpectralImage((pattern * cont).astype(np.float32), WL, np.full(len(WL), 10.0), layers)
+
+
+def test_flash_independent_of_shutter_and_linear_in_power():
+    s = load_sensor("sony_ilce-7rm2")
+    si = _si(0.0, 1e-4)
+    e1 = mean_electrons_rgb(si, s, Exposure(1 / 250, 100))
+    e2 = mean_electrons_rgb(si, s, Exposure(1 / 30, 100))
+    np.testing.assert_allclose(e1, e2, rtol=1e-6)
+    e3 = mean_electrons_rgb(si, s, Exposure(1 / 30, 100, flash_scale=0.25))
+    np.testing.assert_allclose(e3, 0.25 * e1, rtol=1e-6)
+
+
+def test_continuous_plus_flash_adds():
+    s = load_sensor("sony_ilce-7rm2")
+    both = mean_electrons_rgb(_si(0.01, 1e-4), s, Exposure(0.02, 100, flash_scale=0.5))
+    cont = mean_electrons_rgb(_si(0.01, None), s, Exposure(0.02, 100))
+    flash = mean_electrons_rgb(_si(0.0, 1e-4), s, Exposure(1.0, 100, flash_scale=0.5))
+    np.testing.assert_allclose(both, cont + flash, rtol=1e-5)
+
+
+def test_ttl_scales_the_flash_to_the_target():
+    s = load_sensor("sony_ilce-7rm2")
+    si = _si(0.0, 1e-2)  # a very strong flash: TTL must turn it down
+    ex = auto_exposure(si, s, percentile=99, target=0.8)
+    assert 0 < ex.flash_scale < 1 and ex.exposure_time_s == pytest.approx(1 / 125)
+    e = mosaic(mean_electrons_rgb(si, s, ex), s.cfa_pattern)
+    assert np.percentile(e, 99) == pytest.approx(0.8 * s.saturation_e(ex.iso), rel=1e-6)
+
+
+def test_weak_flash_raises_iso():
+    s = load_sensor("sony_ilce-7rm2")
+    si = _si(0.0, 1e-9)
+    ex = auto_exposure(si, s)
+    assert ex.flash_scale == 1.0 and ex.iso > s.base_iso
+
+
+def test_continuous_only_sets_shutter():
+    s = load_sensor("sony_ilce-7rm2")
+    si = _si(0.05, None)
+    ex = auto_exposure(si, s, target=0.5)
+    e = mosaic(mean_electrons_rgb(si, s, ex), s.cfa_pattern)
+    assert np.percentile(e, 99) == pytest.approx(0.5 * s.saturation_e(ex.iso), rel=1e-6)
