@@ -37,10 +37,11 @@ Reflectances (Lambertian, tabulated 360–830 nm every 5 nm, :data:`REFLECTANCE_
 Image coordinates: pixel ``(col, row)``, origin at the top-left corner of the
 image, col to the right, row down, pixel centres at half-integers; the image's
 right is ``forward × up`` (as Mitsuba renders).  Dome ports are concentric, so
-they do not bend chief rays; a flat port bends them by Snell's law
-``sin θ_air = n_water sin θ_water`` (the window's standoff and thickness are
-ignored: a first-order model, accurate when the target is far compared with
-the standoff).
+they do not bend chief rays; a flat port refracts them air → glass → water at
+both faces of the window (standoff, thickness and glass index included — the
+same exact geometry as :mod:`rigsim.render.camera`), which narrows the view
+and adds pincushion distortion.  With no water (``scene.water is None``) the
+outside medium has index 1.
 """
 
 from __future__ import annotations
@@ -76,6 +77,7 @@ __all__ = [
     "target_layout",
     "project_to_image",
     "pixel_directions",
+    "pixel_rays",
     "camera_frame",
     "mesh_vertices",
 ]
@@ -423,8 +425,18 @@ def mesh_vertices(path: str | Path) -> np.ndarray:
 
 # ----------------------------------------------------------------------------- image mapping
 
-def _port_index(camera: Camera, water_index: float) -> float:
-    return float(water_index) if camera.port.kind == "flat" else 1.0
+def _flat_port_radius(camera: Camera, theta_a, depth, water_index: float):
+    """Radial distance from the axis at axial ``depth`` (m) of the chief ray leaving the pupil at θ_air.
+
+    The ray crosses the air gap (standoff), the glass (thickness, index n_g) and
+    then the water (n_w), refracting at both faces of the window.
+    """
+    port = camera.port
+    st = np.sin(theta_a)
+    tg = np.tan(np.arcsin(st / port.glass_index))
+    tw = np.tan(np.arcsin(st / water_index))
+    return port.standoff_m * np.tan(theta_a) + port.thickness_m * tg + (depth - port.standoff_m
+                                                                         - port.thickness_m) * tw
 
 
 def project_to_image(camera: Camera, points_m, width: int, height: int, *,
@@ -441,15 +453,31 @@ def project_to_image(camera: Camera, points_m, width: int, height: int, *,
         Image size in pixels.
     water_index
         Refractive index of the medium outside a flat port (1 for "no water").
+
+    Notes
+    -----
+    Dome: central projection through the pupil.  Flat port: the chief ray's
+    in-air angle is found by bisection so that, refracted through the window
+    (standoff, thickness, glass index) into the water, it passes through the
+    point — the same exact geometry as the renderer's camera.
     """
     right, up, fwd = camera_frame(camera)
     d = np.asarray(points_m, float) - np.asarray(camera.position_m, float)
     x, y, z = d @ right, d @ up, d @ fwd
     rho = np.hypot(x, y)
-    theta_w = np.arctan2(rho, z)
-    s = _port_index(camera, water_index) * np.sin(theta_w)
+    if camera.port.kind == "flat":
+        inner = camera.port.standoff_m + camera.port.thickness_m
+        lo = np.zeros_like(rho)
+        hi = np.full_like(rho, np.radians(89.999))
+        for _ in range(64):
+            mid = 0.5 * (lo + hi)
+            too_far = _flat_port_radius(camera, mid, z, water_index) > rho
+            hi = np.where(too_far, mid, hi)
+            lo = np.where(too_far, lo, mid)
+        theta_a = np.where((z > inner) & (hi < np.radians(89.99)), 0.5 * (lo + hi), np.nan)
+    else:
+        theta_a = np.where(z > 0, np.arctan2(rho, np.where(z > 0, z, 1.0)), np.nan)
     with np.errstate(invalid="ignore"):
-        theta_a = np.where((z > 0) & (s < 1), np.arcsin(np.clip(s, -1, 1)), np.nan)
         r_mm = camera.focal_length_mm * np.tan(theta_a)
         cphi = np.where(rho > 0, x / np.where(rho > 0, rho, 1), 1.0)
         sphi = np.where(rho > 0, y / np.where(rho > 0, rho, 1), 0.0)
@@ -458,20 +486,37 @@ def project_to_image(camera: Camera, points_m, width: int, height: int, *,
     return np.stack([col, row], axis=-1)
 
 
-def pixel_directions(camera: Camera, width: int, height: int, *, water_index: float = 1.34) -> np.ndarray:
-    """World directions (height, width, 3) of the chief rays through pixel centres, in the water."""
+def pixel_rays(camera: Camera, width: int, height: int, *,
+               water_index: float = 1.34) -> tuple[np.ndarray, np.ndarray]:
+    """Chief rays through pixel centres, in the water: origins and unit directions, (height, width, 3).
+
+    Dome: origin at the pupil, direction unchanged.  Flat port: the ray is
+    refracted air → glass → water and starts on the window's outer face.
+    """
     right, up, fwd = camera_frame(camera)
     cols = (np.arange(width) + 0.5) / width - 0.5
     rows = 0.5 - (np.arange(height) + 0.5) / height
     xm = cols[None, :] * camera.sensor_width_mm
     ym = rows[:, None] * camera.sensor_height_mm
-    r_mm = np.hypot(xm, ym)
-    theta_a = np.arctan2(r_mm, camera.focal_length_mm)
-    theta_w = np.arcsin(np.sin(theta_a) / _port_index(camera, water_index))
+    theta_a = np.arctan2(np.hypot(xm, ym), camera.focal_length_mm)
     phi = np.arctan2(ym, xm)
-    st = np.sin(theta_w)
-    return (st * np.cos(phi))[..., None] * right + (st * np.sin(phi))[..., None] * up \
-        + np.cos(theta_w)[..., None] * fwd
+    radial = np.cos(phi)[..., None] * right + np.sin(phi)[..., None] * up
+    pupil = np.asarray(camera.position_m, float)
+    if camera.port.kind == "flat":
+        theta_w = np.arcsin(np.sin(theta_a) / water_index)
+        depth = camera.port.standoff_m + camera.port.thickness_m
+        r0 = _flat_port_radius(camera, theta_a, depth, water_index)
+        origins = pupil + r0[..., None] * radial + depth * fwd
+    else:
+        theta_w = theta_a
+        origins = np.broadcast_to(pupil, radial.shape).copy()
+    dirs = np.sin(theta_w)[..., None] * radial + np.cos(theta_w)[..., None] * fwd
+    return origins, dirs
+
+
+def pixel_directions(camera: Camera, width: int, height: int, *, water_index: float = 1.34) -> np.ndarray:
+    """World directions (height, width, 3) of the chief rays through pixel centres, in the water."""
+    return pixel_rays(camera, width, height, water_index=water_index)[1]
 
 
 @dataclass(frozen=True, eq=False)
@@ -537,8 +582,7 @@ def target_layout(scene: Scene, width: int, height: int, *, target_index: int = 
     target = scene.targets[target_index]
     surfaces = target_surfaces(target, camera)
     n_w = WATER_INDEX if scene.water is not None else 1.0
-    dirs = pixel_directions(camera, width, height, water_index=n_w)
-    origin = np.asarray(camera.position_m, float)
+    origin, dirs = pixel_rays(camera, width, height, water_index=n_w)
     best = np.full((height, width), np.inf)
     label = np.zeros((height, width), dtype=np.int32)
     for s in surfaces:
@@ -566,7 +610,7 @@ def target_layout(scene: Scene, width: int, height: int, *, target_index: int = 
         if s.shape == "mesh":
             continue
         pts = s.outline_m()
-        if np.all((pts - origin) @ fwd > 0):
+        if np.all((pts - np.asarray(camera.position_m, float)) @ fwd > 0):
             px = project_to_image(camera, pts, width, height, water_index=n_w)
             if np.all(np.isfinite(px)):
                 polygons[s.name] = px

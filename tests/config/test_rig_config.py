@@ -231,3 +231,17 @@ def test_missing_beam_profile(tmp_path):
 def test_up_parallel_to_forward(tmp_path):
     p = write(tmp_path, BASE.replace("[camera]\n", "[camera]\nup = [0.0, 0.0, 2.0]\n"))
     one_line_error(p, "camera.up", "parallel")
+
+
+def test_edge_lighting_rig_puts_subject_at_beam_edge():
+    rig = load_rig(RIGS / "twin-strobes-edge-lighting.toml")
+    for lt in rig.lights:
+        pos, aim = np.asarray(lt.position_m), np.asarray(lt.aim)
+        half = lt.beam.beam_angle_deg / 2
+
+        def off_axis(point):
+            d = np.asarray(point) - pos
+            return np.degrees(np.arccos(d @ aim / np.linalg.norm(d)))
+
+        assert half - 5 < off_axis([0, 0, 1.0]) < half + 2        # subject near the half-intensity edge
+        assert off_axis([0, 0, 0.3]) > half + 15                  # water just in front of the dome: dim
