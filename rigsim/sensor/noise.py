@@ -197,3 +197,20 @@ def digitise_emva1288(electrons: np.ndarray, *, gain_dn_per_e: float, read_noise
     np.rint(y, out=y)
     np.clip(y, 0, white_level_dn, out=y)
     return y.astype(np.uint16)
+
+
+def snr_emva1288(mean_photo_e, sensor, *, iso: float, exposure_time_s: float,
+                 temperature_c: float | None = None) -> np.ndarray:
+    """Temporal signal-to-noise ratio of the EMVA 1288 linear model (EMVA 1288 R4.0, eq. 15).
+
+    ``SNR = μ_e / sqrt(σ_d² + σ_q²/K² + μ_e + μ_dark)`` with μ_e the mean photo-electrons,
+    σ_d the read noise (e⁻) and K the conversion gain at ``iso``, σ_q² = 1/12 DN² and μ_dark
+    the dark electrons over the exposure (their shot noise).  Clipping at full well is not
+    modelled (SNR is for unsaturated signals).
+    """
+    mu = np.asarray(mean_photo_e, float)
+    setting = sensor.iso_setting(iso)
+    temp = sensor.dark_current_ref_temp_c if temperature_c is None else temperature_c
+    mu_dark = dark_current_e_per_s(sensor, temp) * exposure_time_s
+    var = setting.read_noise_e ** 2 + (1.0 / 12.0) / setting.gain_dn_per_e ** 2 + mu + mu_dark
+    return mu / np.sqrt(var)

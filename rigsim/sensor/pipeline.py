@@ -276,7 +276,8 @@ def _resampled_mosaic(img: np.ndarray, pattern: str, shape) -> np.ndarray:
 
 def auto_exposure(spectral_image, sensor: Sensor, *, lens: Lens = Lens(), iso: float | None = None,
                   percentile: float = 99.0, target: float = 0.8,
-                  temperature_c: float | None = None, flash_shutter_s: float = 1 / 125) -> Exposure:
+                  temperature_c: float | None = None, flash_shutter_s: float = 1 / 125,
+                  mask: np.ndarray | None = None) -> Exposure:
     """Exposure that puts the ``percentile`` of the raw signal at ``target`` × saturation.
 
     Continuous light only: the shutter time is chosen.  With strobes (a ``flash`` layer)
@@ -295,6 +296,9 @@ def auto_exposure(spectral_image, sensor: Sensor, *, lens: Lens = Lens(), iso: f
         ISO to use (default: the sensor's base ISO).
     flash_shutter_s
         Shutter time used with strobes (s).
+    mask
+        Optional (rows, cols) boolean meter region of the render (a spot meter: e.g. the
+        chart); the percentile is taken over its pixels only.
     """
     if not (0 < percentile <= 100) or not (0 < target <= 1):
         raise ConfigError("auto-exposure needs 0 < percentile <= 100 and 0 < target <= 1",
@@ -302,6 +306,11 @@ def auto_exposure(spectral_image, sensor: Sensor, *, lens: Lens = Lens(), iso: f
     iso = sensor.base_iso if iso is None else iso
     probe = Exposure(1.0, iso, lens, temperature_c)
     cont, flash = (mosaic(x, sensor.cfa_pattern) for x in _electrons_parts(spectral_image, sensor, probe))
+    if mask is not None:
+        m = np.asarray(mask, bool)
+        if m.shape != cont.shape or not m.any():
+            raise ConfigError("meter mask must match the render's shape and select pixels", field="mask")
+        cont, flash = cont[m], flash[m]
     goal = target * sensor.saturation_e(iso)
     has_flash = "flash" in spectral_image.layers and float(flash.max()) > 0
 

@@ -13,6 +13,8 @@
     waters = ["clear", "coastal", "jerlov-II", "coastal-regions"]   # presets or water TOML files
     distances_m = [0.5, 1, 1.5, 2, 3, 4]
     targets = ["colorchecker", "black-disk"]
+    target_fill = 0.35      # optional: targets span this fraction of the image width at every
+                            # distance (a larger chart farther out); default: their real size
     depth_m = 10            # optional: camera depth for daylight
 
     [render]
@@ -26,7 +28,7 @@
     exposure = "auto"       # or "manual" with iso, shutter_s
     iso = 100
     shutter_s = 0.008
-    white_balance = "grayworld"
+    white_balance = "auto"  # chart's neutral 5 patch for chart targets, else grayworld; or any method
     demosaic = "Malvar2004"
 
     [metrics]
@@ -59,7 +61,7 @@ __all__ = ["RenderSettings", "CaptureSettings", "StudySpec", "Case", "load_study
 TARGETS = ("colorchecker", "black-disk", "white-disk", "slanted-edge", "bottom")
 
 _STUDY_KEYS = ("name", "description", "seed")
-_SWEEP_KEYS = ("rigs", "sensors", "waters", "distances_m", "targets", "depth_m")
+_SWEEP_KEYS = ("rigs", "sensors", "waters", "distances_m", "targets", "depth_m", "target_fill")
 _RENDER_KEYS = ("width", "height", "spp", "wavelengths", "engine", "integrator")
 _CAPTURE_KEYS = ("exposure", "iso", "shutter_s", "white_balance", "demosaic", "target_percentile",
                  "target_level")
@@ -86,7 +88,7 @@ class CaptureSettings:
     exposure: str = "auto"
     iso: float = 100.0
     shutter_s: float = 1 / 125
-    white_balance: str = "grayworld"
+    white_balance: str = "auto"
     demosaic: str = "Malvar2004"
     target_percentile: float = 99.0
     target_level: float = 0.8
@@ -103,6 +105,7 @@ class Case:
     distance_m: float
     target: str
     depth_m: float | None
+    target_fill: float | None = None
 
     def key(self) -> dict:
         return asdict(self)
@@ -123,6 +126,7 @@ class StudySpec:
     distances_m: tuple[float, ...]
     targets: tuple[str, ...]
     depth_m: float | None
+    target_fill: float | None
     render: RenderSettings
     capture: CaptureSettings
     contrast_threshold: float = 0.02
@@ -137,7 +141,7 @@ class StudySpec:
             for w, wn in zip(self.waters, self.water_names):
                 for t in self.targets:
                     for d in self.distances_m:
-                        out.append(Case(rig, rn, w, wn, float(d), t, self.depth_m))
+                        out.append(Case(rig, rn, w, wn, float(d), t, self.depth_m, self.target_fill))
         return out
 
     def describe(self) -> dict:
@@ -258,6 +262,8 @@ def load_study(path: str | Path, *, quick: bool = False) -> StudySpec:
             raise unknown_name_error("target", t, TARGETS, file=path, field=f"sweep.targets[{i}]")
     targets = [t if t in TARGETS else _resolve(t, base) for t in targets]
     depth = get_number(sweep, "depth_m", file=path, prefix="sweep.", minimum=0.0)
+    fill = get_number(sweep, "target_fill", file=path, prefix="sweep.", minimum=0.0, exclusive_minimum=True,
+                      maximum=1.0)
 
     # --- render
     wl = render.get("wavelengths", "400:700:10")
@@ -283,11 +289,11 @@ def load_study(path: str | Path, *, quick: bool = False) -> StudySpec:
     from rigsim.sensor.demosaic import DEMOSAICING_METHODS
     from rigsim.sensor.white_balance import WHITE_BALANCE_METHODS
 
-    wb = cap.get("white_balance", "grayworld")
-    if wb not in WHITE_BALANCE_METHODS:
+    wb = cap.get("white_balance", "auto")
+    if wb != "auto" and wb not in WHITE_BALANCE_METHODS:
         from rigsim.errors import unknown_name_error
 
-        raise unknown_name_error("white balance", str(wb), WHITE_BALANCE_METHODS, file=path,
+        raise unknown_name_error("white balance", str(wb), ["auto", *WHITE_BALANCE_METHODS], file=path,
                                  field="capture.white_balance")
     dm = cap.get("demosaic", "Malvar2004")
     if dm not in DEMOSAICING_METHODS:
@@ -313,7 +319,7 @@ def load_study(path: str | Path, *, quick: bool = False) -> StudySpec:
         name=str(study.get("name", path.stem)), description=str(study.get("description", "")),
         seed=int(seed), rigs=tuple(rig_files), rig_names=tuple(rig_names), sensors=tuple(sensors),
         waters=tuple(waters), water_names=tuple(water_names), distances_m=tuple(distances),
-        targets=tuple(targets), depth_m=depth, render=rs, capture=cs, contrast_threshold=thr,
+        targets=tuple(targets), depth_m=depth, target_fill=fill, render=rs, capture=cs, contrast_threshold=thr,
         source=str(path.resolve()), quick=quick)
 
 

@@ -58,3 +58,14 @@ def test_continuous_only_sets_shutter():
     ex = auto_exposure(si, s, target=0.5)
     e = mosaic(mean_electrons_rgb(si, s, ex), s.cfa_pattern)
     assert np.percentile(e, 99) == pytest.approx(0.5 * s.saturation_e(ex.iso), rel=1e-6)
+
+
+def test_snr_emva1288_limits():
+    from rigsim.sensor.noise import snr_emva1288
+
+    s = load_sensor("sony_ilce-7rm2")
+    # shot-noise limit: SNR -> sqrt(mu) for large signals
+    assert snr_emva1288(1e6, s, iso=100, exposure_time_s=1e-3) == pytest.approx(1e3, rel=1e-3)
+    # read-noise limit: SNR -> mu / sigma_d for tiny signals
+    sd = s.iso_setting(100).read_noise_e
+    assert snr_emva1288(1e-3, s, iso=100, exposure_time_s=1e-6) == pytest.approx(1e-3 / sd, rel=0.05)
