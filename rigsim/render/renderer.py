@@ -150,26 +150,44 @@ def render_pass(ms: MitsubaScene, camera, *, width: int, height: int, spp: int, 
     lo_arr = mi.Float(band_lo.astype(np.float32))
     w_arr = mi.Float(band_w.astype(np.float32))
     dropped = 0
+    # With 4·spp ≥ B every band of every pixel gets a fixed number of wavelength draws
+    # (n_b = ⌈(b+1)·4spp/B⌉ − ⌈b·4spp/B⌉), uniform and stratified inside the band: the band
+    # value is their plain mean (no noise from how many draws a band happened to get).
+    # Otherwise bands are drawn at random (probability 1/B) and the sum is scaled by B/4spp.
+    fixed_counts = 4 * spp >= B
+    # sizes enter the kernels as opaque values: one compiled kernel serves every size
+    spp4_o, B_o, spp_o, W_o = (dr.opaque(mi.UInt32, v) for v in (4 * spp, B, spp, width))
     for chunk, (row0, rows, s0, sc) in enumerate(_chunks(width, height, spp)):
         n = rows * width * sc
         sampler = mi.load_dict({"type": "independent"})
         sampler.seed(_chunk_seed(seed, pass_index, chunk), n)
         idx = dr.arange(mi.UInt32, n)
-        pix = idx // sc
-        s = mi.Float(idx % sc + s0)
-        row = mi.Float(pix // width + row0)
-        col = mi.Float(pix % width)
+        sc_o, s0_o, row0_o = (dr.opaque(mi.UInt32, v) for v in (sc, s0, row0))
+        pix = idx // sc_o
+        s_int = idx % sc_o + s0_o
+        s = mi.Float(s_int)
+        row = mi.Float(pix // W_o + row0_o)
+        col = mi.Float(pix % W_o)
         jit = sampler.next_2d()
         o, d = generate_rays(camera, (col + jit.x) / width, (row + jit.y) / height, width, height)
         ray = mi.RayDifferential3f(o, d)
-        u = (s + sampler.next_1d()) / spp
         lams, bands = [], []
         for j in range(4):
-            uj = u + 0.25 * j
-            uj = dr.select(uj >= 1.0, uj - 1.0, uj)
-            fb = uj * B
-            b = mi.UInt32(dr.clip(dr.floor(fb), 0, B - 1))
-            lam = dr.gather(mi.Float, lo_arr, b) + dr.clip(fb - mi.Float(b), 0.0, 1.0) * dr.gather(mi.Float, w_arr, b)
+            xi = sampler.next_1d()
+            if fixed_counts:
+                # draw i = j·spp + s → band ⌊i B / 4spp⌋; stratified inside the band
+                i = spp_o * j + s_int
+                b = (i * B_o) // spp4_o
+                start = (b * spp4_o + (B_o - 1)) // B_o
+                stop = ((b + 1) * spp4_o + (B_o - 1)) // B_o
+                frac = (mi.Float(i - start) + xi) / mi.Float(stop - start)
+            else:
+                uj = (s + xi) / mi.Float(spp_o) + 0.25 * j
+                uj = dr.select(uj >= 1.0, uj - 1.0, uj)
+                fb = uj * mi.Float(B_o)
+                b = dr.minimum(mi.UInt32(dr.floor(fb)), B_o - 1)
+                frac = fb - mi.Float(b)
+            lam = dr.gather(mi.Float, lo_arr, b) + dr.clip(frac, 0.0, 1.0) * dr.gather(mi.Float, w_arr, b)
             lams.append(lam)
             bands.append(b)
         ray.wavelengths = mi.Spectrum(*lams)
@@ -186,7 +204,11 @@ def render_pass(ms: MitsubaScene, camera, *, width: int, height: int, spp: int, 
         acc += np.bincount((pix_g[None, :] * B + Bn).ravel(), weights=Ln.ravel(), minlength=n_pix * B)
         if tick is not None:
             tick()
-    img = acc.reshape(height, width, B) * (B / (4.0 * spp))
+    if fixed_counts:
+        edges = (np.arange(B + 1) * (4 * spp) + (B - 1)) // B
+        img = acc.reshape(height, width, B) / np.diff(edges)
+    else:
+        img = acc.reshape(height, width, B) * (B / (4.0 * spp))
     return img, dropped
 
 

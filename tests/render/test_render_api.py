@@ -1,0 +1,212 @@
+"""render(): ports and field of view, seeds, layers, light kinds, hero wavelengths in a render,
+and clear one-line errors for bad input."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from rigsim.errors import ConfigError
+from rigsim.render import render
+from rigsim.render.camera import fov_water_deg, generate_rays
+from rigsim.render.variant import mitsuba
+from rigsim.scene.types import Camera, Port, Rig, Scene, Target
+from rigsim.spectral_image import SpectralImage
+from rigsim.water import preset
+from rigsim.water.kd import WATER_INDEX
+from tests.render.helpers import disk_scene, make_camera, make_light
+
+pytestmark = pytest.mark.render
+mi, dr = mitsuba()
+
+
+# --------------------------------------------------------------------------- ports / FOV
+def test_flat_port_fov_follows_snell_dome_keeps_air_fov():
+    cam_flat = Camera(focal_length_mm=14.0, port=Port(kind="flat"))
+    cam_dome = Camera(focal_length_mm=14.0, port=Port(kind="dome"))
+    half_air = np.radians(cam_flat.fov_air_x_deg) / 2
+    assert fov_water_deg(cam_dome) == pytest.approx(cam_dome.fov_air_x_deg)
+    assert fov_water_deg(cam_flat) == pytest.approx(np.degrees(2 * np.arcsin(np.sin(half_air) / WATER_INDEX)))
+    # the traced edge rays: right edge of the centre row
+    for cam, expect in ((cam_flat, np.arcsin(np.sin(half_air) / WATER_INDEX)), (cam_dome, half_air)):
+        o, d = generate_rays(cam, mi.Float([1.0, 0.5]), mi.Float([0.5, 0.5]), 300, 200)
+        d = np.array(d, float).T
+        ang = np.arccos(np.clip(d[:, 2], -1, 1))
+        assert ang[0] == pytest.approx(expect, rel=1e-5)
+        assert ang[1] == pytest.approx(0.0, abs=1e-6)
+        # the image's right is forward × up = −x for forward +z, up +y
+        assert d[0, 0] < 0
+
+
+def test_flat_port_image_narrows_by_snell():
+    """A disk's image is wider behind a flat port by tan θ_air / tan θ_water (Snell)."""
+    r, D, W, H = 0.6, 2.0, 120, 80
+    widths = {}
+    for kind in ("flat", "dome"):
+        port = Port(kind=kind, radius_m=1e-4, thickness_m=1e-6, standoff_m=1e-6)
+        cam = Camera(focal_length_mm=20.0, port=port)
+        scene = Scene(Rig("r", cam, ()), None, (Target("white-disk", D, size_m=2 * r),))
+        img = render(scene, width=W, height=H, spp=1, wavelengths_nm=[550.0], layers=("object_id", "range_m"))
+        row = img.layers["object_id"][H // 2]
+        cols = np.flatnonzero(row == 1)
+        widths[kind] = (cols[-1] - cols[0] + 1) / 2  # half width in pixels
+        tan_half = 36.0 / (2 * 20.0)
+        th_w = np.arctan(r / D)
+        th_a = np.arcsin(WATER_INDEX * np.sin(th_w)) if kind == "flat" else th_w
+        assert widths[kind] == pytest.approx(W / 2 * np.tan(th_a) / tan_half, abs=1.0)
+        # range at the centre pixel: the distance to the disk along that ray
+        assert img.layers["range_m"][H // 2, W // 2] == pytest.approx(D, rel=1e-3)
+        assert np.isinf(img.layers["range_m"][0, 0])
+    assert widths["flat"] / widths["dome"] == pytest.approx(
+        np.tan(np.arcsin(WATER_INDEX * np.sin(np.arctan(r / D)))) / (r / D), rel=0.03)
+
+
+# --------------------------------------------------------------------------- seeds
+def _scattering_scene():
+    light = make_light("continuous", position=(0.2, 0.0, 0.0), intensity=2.0)
+    return disk_scene(preset("coastal"), [light], distance=1.5, size=1.0)
+
+
+def test_same_seed_same_image_other_seed_other_image():
+    s = _scattering_scene()
+    kw = dict(width=12, height=8, spp=8, wavelengths_nm=[450.0, 550.0], layers=())
+    a, b, c = render(s, seed=1, **kw), render(s, seed=1, **kw), render(s, seed=2, **kw)
+    assert np.array_equal(a.radiance, b.radiance)
+    assert not np.array_equal(a.radiance, c.radiance)
+    assert np.all(np.isfinite(a.radiance)) and a.meta["seed"] == 1 and a.meta["spp"] == 8
+
+
+# --------------------------------------------------------------------------- hero wavelengths
+def test_band_radiance_independent_of_the_other_bands_of_the_path():
+    """Backscatter (all scattering) in coastal water: each band of a two-band render, whose
+    paths mix wavelengths of both bands, equals a render of that band alone."""
+    light = make_light("continuous", position=(0.3, 0.0, 0.0), intensity=1.0)
+    scene = disk_scene(preset("coastal"), [light], distance=1.5, size=1.0)
+    kw = dict(width=12, height=8, spp=256, layers=(), split=True, bandwidth_nm=10.0)
+    both = render(scene, seed=4, wavelengths_nm=[450.0, 650.0], **kw).layers["backscatter"]
+    for j, lam in enumerate((450.0, 650.0)):
+        alone = render(scene, seed=9, wavelengths_nm=[lam], **kw).layers["backscatter"][..., 0]
+        a, b = both[..., j], alone
+        se = np.sqrt(a.var(ddof=1) / a.size + b.var(ddof=1) / b.size)
+        assert abs(a.mean() - b.mean()) < 4 * se, (lam, a.mean(), b.mean(), se)
+    assert both[..., 0].mean() > 1.2 * both[..., 1].mean()  # the bands really differ
+
+
+# --------------------------------------------------------------------------- layers, lights
+def test_strobes_and_continuous_lights_separate_and_linear():
+    cont = make_light("continuous", position=(0.2, 0.0, 0.0), intensity=2.0, name="video")
+    strobe = make_light("strobe", position=(-0.2, 0.0, 0.0), intensity=3.0, name="strobe")
+    kw = dict(width=12, height=8, spp=4, wavelengths_nm=[500.0], layers=("clear",))
+    mixed = render(disk_scene(None, [cont, strobe]), **kw)
+    only_c = render(disk_scene(None, [cont]), **kw)
+    only_s = render(disk_scene(None, [strobe]), **kw)
+    # no water, one bounce: only the pixel jitter is random; the continuous pass comes first in
+    # both renders (same random numbers), the strobe pass is the second one in ``mixed``
+    assert np.allclose(mixed.radiance, only_c.radiance, rtol=1e-5, atol=1e-9)
+    assert np.allclose(mixed.layers["flash"], only_s.layers["flash"], rtol=0.02)
+    assert np.all(only_s.radiance == 0) and "flash" not in only_c.layers
+    assert np.array_equal(mixed.layers["flash_clear"], mixed.layers["flash"])
+    h = mixed.radiant_exposure(0.01)
+    assert np.allclose(h, 0.01 * mixed.radiance + mixed.layers["flash"])
+
+
+def test_colorchecker_ids_and_patch_ratios(tmp_path):
+    light = make_light("continuous", position=(0.0, 0.0, 0.0), intensity=1.0)
+    cam = make_camera("dome", focal_length_mm=40.0)
+    scene = Scene(Rig("r", cam, (light,)), preset("clear"), (Target("colorchecker", 0.8, size_m=0.2794),))
+    img = render(scene, width=90, height=60, spp=4, seed=0, wavelengths_nm=[450.0, 550.0, 650.0],
+                 bandwidth_nm=10.0)
+    oid = img.layers["object_id"]
+    assert set(np.unique(oid)) >= set(range(1, 26))
+    legend = img.meta["object_ids"]
+    assert len(legend) == 25
+    white = [k for k, v in legend.items() if "white" in v][0]
+    black = [k for k, v in legend.items() if "black 2" in v][0]
+    import colour
+
+    sds = colour.SDS_COLOURCHECKERS["ColorChecker N Ohta"]
+    rw = np.array([sds["white 9.5 (.05 D)"][w] for w in (450, 550, 650)])
+    rb = np.array([sds["black 2 (1.5 D)"][w] for w in (450, 550, 650)])
+    clear = img.layers["clear"]
+
+    def interior(k):  # pixels whose neighbours see the same patch (no board mixed in by the jitter)
+        m = oid == int(k)
+        return m & np.roll(m, 1, 0) & np.roll(m, -1, 0) & np.roll(m, 1, 1) & np.roll(m, -1, 1)
+
+    ratio = clear[interior(white)].mean(axis=0) / clear[interior(black)].mean(axis=0)
+    assert np.allclose(ratio, rw / rb, rtol=0.03)
+    # a round trip through disk
+    img.save(tmp_path / "r")
+    back = SpectralImage.load(tmp_path / "r")
+    assert np.allclose(back.radiance, img.radiance) and back.meta["object_ids"] == legend
+    assert img.meta["water"]["name"] == "clear" and img.meta["wall_time_s"] > 0
+
+
+def test_progress_callback_reaches_one():
+    calls = []
+    render(_scattering_scene(), width=6, height=4, spp=2, wavelengths_nm=[550.0], layers=("clear",), split=True,
+           progress=lambda f, msg: calls.append((f, msg)))
+    assert calls and calls[-1][0] == pytest.approx(1.0) and len(calls) == 4
+
+
+# --------------------------------------------------------------------------- errors
+@pytest.mark.parametrize("kwargs, match", [
+    (dict(width=0), "width"),
+    (dict(spp=1.5), "spp"),
+    (dict(layers=("depth",)), "unknown layer"),
+    (dict(wavelengths_nm=[300.0]), "Mitsuba"),
+    (dict(wavelengths_nm=[550.0, 500.0]), "increase"),
+    (dict(wavelengths_nm=[500.0, 510.0], bandwidth_nm=30.0), "overlap"),
+])
+def test_bad_arguments_are_one_line_config_errors(kwargs, match):
+    args = dict(width=4, height=4, spp=1)
+    args.update(kwargs)
+    with pytest.raises(ConfigError, match=match) as e:
+        render(_scattering_scene(), **args)
+    assert "\n" not in str(e.value)
+
+
+def test_bad_scene_inputs_are_config_errors(tmp_path):
+    short = make_light("continuous", wavelength_nm=(500.0, 600.0), intensity=1.0)
+    with pytest.raises(ConfigError, match="light"):
+        render(disk_scene(None, [short]), width=4, height=4, spp=1, wavelengths_nm=[450.0])
+    jerlov = preset("jerlov-IB")  # defined up to 700 nm
+    with pytest.raises(ConfigError, match="jerlov"):
+        render(disk_scene(jerlov, [make_light()]), width=4, height=4, spp=1, wavelengths_nm=[720.0])
+    bad_refl = Scene(Rig("r", make_camera(), (make_light(),)), None,
+                     (Target("white-disk", 1.0, reflectance_wavelength_nm=(360.0, 830.0), reflectance=(1.5, 1.5)),))
+    with pytest.raises(ConfigError, match="reflectance"):
+        render(bad_refl, width=4, height=4, spp=1)
+    mesh = Scene(Rig("r", make_camera(), (make_light(),)), None,
+                 (Target("mesh", 1.0, mesh_path=str(tmp_path / "nope.obj")),))
+    with pytest.raises(ConfigError, match="mesh"):
+        render(mesh, width=6, height=4, spp=1)
+
+
+def test_few_samples_many_bands_still_unbiased():
+    """4·spp < bands: bands drawn at random and scaled (Horvitz–Thompson); the disk's mean
+    radiance still matches the exact value."""
+    from rigsim.render.renderer import band_edges
+    from tests.render.helpers import reference_direct, relative_error
+
+    light = make_light("continuous", position=(0.0, 0.0, 0.0), intensity=1.0)
+    scene = disk_scene(None, [light], distance=1.0, size=2.0)
+    img = render(scene, width=24, height=16, spp=2, wavelengths_nm=np.arange(400.0, 701.0, 10.0), layers=())
+    wl, bw = band_edges(np.arange(400.0, 701.0, 10.0))
+    ref, inside = reference_direct(scene, 24, 16, wl, bw)
+    rel, se = relative_error(img.radiance, ref, inside)
+    assert np.all(np.abs(rel) < 4 * se + 1e-3)
+    assert np.abs(rel.mean()) < 0.02
+
+
+def test_mesh_target(tmp_path):
+    obj = tmp_path / "quad.obj"
+    obj.write_text("v -1 -1 0\nv 1 -1 0\nv 1 1 0\nv -1 1 0\nf 1 2 3\nf 1 3 4\n")
+    light = make_light("continuous", position=(0.0, 0.0, 0.0), intensity=1.0)
+    scene = Scene(Rig("r", make_camera(), (light,)), preset("clear"),
+                  (Target("mesh", 1.0, size_m=0.1, mesh_path=str(obj)),))
+    img = render(scene, width=12, height=8, spp=4, wavelengths_nm=[550.0])
+    oid = img.layers["object_id"]
+    assert oid[4, 6] == 1 and oid[0, 0] == 0
+    assert img.layers["clear"][4, 6, 0] > 0
+    assert img.layers["range_m"][4, 6] == pytest.approx(1.0, rel=1e-3)
