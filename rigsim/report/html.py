@@ -81,7 +81,9 @@ def write_report(study_dir: str | Path) -> Path:
     timings = _read_csv(d / "timings.csv")
     waters = list(dict.fromkeys(spec["water_names"]))
     rigs = list(dict.fromkeys(spec["rig_names"]))
-    sensors = [Path(s).stem for s in spec["sensors"]]
+    from rigsim.study.spec import sensor_key
+
+    sensors = [sensor_key(s) for s in spec["sensors"]]
     targets = [Path(t).name for t in spec["targets"]]
     thr = spec["contrast_threshold"]
 

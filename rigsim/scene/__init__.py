@@ -6,10 +6,14 @@ distance.  Both renderers (:mod:`rigsim.render`, :mod:`rigsim.preview`) read the
 same Scene.
 
 Coordinates: right-handed, metres.  The camera's entrance pupil is at its
-``position_m``; by default the camera looks along +z with +y up (a diver's
-frame: x right, y up, z forward).  Depth below the surface is a separate scalar.
+``position_m``; by default the camera looks along +z with +y up, so the image's
+right is ``forward × up`` = world −x (as Mitsuba renders it).  Rig files give light
+positions in the camera frame [right, up, forward].  Depth below the surface is a
+separate scalar.
 """
 
+from rigsim.scene.build import build_scene
+from rigsim.scene.targets import target_layout, target_surfaces
 from rigsim.scene.types import (
     BeamPattern,
     Camera,
@@ -21,4 +25,5 @@ from rigsim.scene.types import (
     Target,
 )
 
-__all__ = ["BeamPattern", "Camera", "Daylight", "Light", "Port", "Rig", "Scene", "Target"]
+__all__ = ["BeamPattern", "Camera", "Daylight", "Light", "Port", "Rig", "Scene", "Target", "build_scene",
+           "target_layout", "target_surfaces"]

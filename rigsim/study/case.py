@@ -34,7 +34,7 @@ import logging
 
 import numpy as np
 
-from rigsim.study.spec import Case, StudySpec
+from rigsim.study.spec import Case, StudySpec, sensor_key
 
 log = logging.getLogger(__name__)
 
@@ -209,8 +209,8 @@ def compute_case(spec: StudySpec, case: Case) -> dict:
             raise RuntimeError("capture resampled the image; studies keep the render's grid")
         y = luminance(lin)
         row = dict(base)
-        sensor_key = sname.rsplit("/", 1)[-1].removesuffix(".toml")
-        row.update({"sensor": sensor_key, "iso": ex.iso, "exposure_time_s": ex.exposure_time_s,
+        skey = sensor_key(sname)
+        row.update({"sensor": skey, "iso": ex.iso, "exposure_time_s": ex.exposure_time_s,
                     "f_number": lens.f_number, "flash_scale": ex.flash_scale if has_flash else None,
                     "raw_saturated_fraction": float(np.mean(cap.raw >= cap.white_level)),
                     "white_balance": wb, "target_size_m": scene.targets[0].size_m})
@@ -235,6 +235,6 @@ def compute_case(spec: StudySpec, case: Case) -> dict:
             except ValueError as exc:
                 log.warning("MTF not measured: %s", exc)
         rows.append(row)
-        files[f"{sensor_key}.png"] = _png_bytes(cap.srgb)
+        files[f"{skey}.png"] = _png_bytes(cap.srgb)
     return {"rows": rows, "files": files, "meta": {"render_wall_time_s": si.meta.get("wall_time_s"),
                                                     "seed": seed}}

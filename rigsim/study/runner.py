@@ -118,6 +118,7 @@ def run_study(spec: StudySpec, out: str | Path, *, scheduler: str | None = None,
         else:
             from dask.distributed import Client, LocalCluster, as_completed
 
+            logging.getLogger("distributed").setLevel(logging.ERROR)
             cluster = None
             if scheduler:
                 client = Client(scheduler)

@@ -163,6 +163,12 @@ class StudySpec:
         return int(h.hexdigest()[:8], 16)
 
 
+def sensor_key(name: str) -> str:
+    """Short sensor label for tables: a file's stem (``.toml`` removed) or the name itself."""
+    base = name.replace("\\", "/").rsplit("/", 1)[-1]
+    return base[:-5] if base.endswith(".toml") else base
+
+
 def _str_list(t: dict, key: str, *, file, prefix: str) -> list[str]:
     v = t.get(key)
     if v is None:
