@@ -124,7 +124,7 @@ def run_study(spec: StudySpec, out: str | Path, *, scheduler: str | None = None,
                 client = Client(scheduler)
             else:
                 cluster = LocalCluster(n_workers=workers or 1, threads_per_worker=1, processes=True,
-                                       dashboard_address=None, silence_logs=logging.ERROR)
+                                       dashboard_address=":0", silence_logs=logging.ERROR)
                 client = Client(cluster)
             try:
                 futures = {client.submit(_run_one, spec, case, pure=False, key=f"case-{spec.case_id(case)}"): case

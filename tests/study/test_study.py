@@ -1,0 +1,119 @@
+"""Studies: validation before rendering, resume after a kill, dask equals serial, the report."""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from rigsim.errors import ConfigError
+from rigsim.study import load_study, run_study
+
+ROOT = Path(__file__).resolve().parents[2]
+
+TINY = """
+[study]
+name = "tiny"
+seed = 3
+
+[sweep]
+rigs = ["{root}/rigs/twin-strobes-close-to-port.toml"]
+sensors = ["sony_ilce-7rm2"]
+waters = ["coastal"]
+distances_m = {distances}
+targets = ["black-disk"]
+target_fill = 0.4
+
+[render]
+width = 24
+height = 16
+spp = 2
+
+[capture]
+exposure = "auto"
+"""
+
+
+def tiny(tmp_path, distances="[1.0, 2.0, 3.0]", extra=""):
+    p = tmp_path / "tiny.toml"
+    p.write_text(TINY.format(root=ROOT, distances=distances) + extra)
+    return p
+
+
+@pytest.mark.render
+def test_dask_local_cluster_equals_serial(tmp_path):
+    spec = load_study(tiny(tmp_path, "[1.0, 2.0]"))
+    a = run_study(spec, tmp_path / "serial", serial=True, progress=False)
+    b = run_study(spec, tmp_path / "dask", progress=False)
+    ta, tb = (a / "results.csv").read_text(), (b / "results.csv").read_text()
+    assert ta == tb and ta.count("\n") == 3  # header + 2 cases × 1 sensor
+    assert (a / "visibility.csv").read_text() == (b / "visibility.csv").read_text()
+
+
+@pytest.mark.render
+def test_interrupted_study_resumes_to_the_same_table(tmp_path):
+    path = tiny(tmp_path)
+    ref = run_study(load_study(path), tmp_path / "ref", serial=True, progress=False)
+    out = tmp_path / "killed"
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    proc = subprocess.Popen([sys.executable, "-m", "rigsim.cli", "study", str(path), "--out", str(out), "--serial",
+                             "--no-report"], env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+                            start_new_session=True)
+    deadline = time.time() + 240
+    while time.time() < deadline and len(list(out.glob("cases/*/result.json"))) < 1:
+        time.sleep(0.2)
+    os.killpg(proc.pid, signal.SIGKILL)
+    proc.wait()
+    finished = len(list(out.glob("cases/*/result.json")))
+    assert 1 <= finished <= 3
+    # nothing half-written is left as a result
+    assert not list(out.glob("cases/*/result.json.*"))
+    done = []
+    run_study(load_study(path), out, serial=True, progress=False, on_case_done=done.append)
+    assert len(done) == 3 - finished  # finished cases were skipped
+    assert (out / "results.csv").read_text() == (ref / "results.csv").read_text()
+
+
+def test_typo_fails_before_rendering(tmp_path, monkeypatch):
+    import rigsim.study.runner as runner
+
+    monkeypatch.setattr(runner, "_run_one", lambda *a: pytest.fail("rendered despite a bad study file"))
+    cases = [
+        ('waters = ["coastal"]', 'waters = ["coastl"]', r"sweep.waters\[0\].*did you mean 'coastal'"),
+        ('sensors = ["sony_ilce-7rm2"]', 'sensors = ["sony_ilce-7rm3"]', r"sweep.sensors\[0\]"),
+        ('targets = ["black-disk"]', 'targets = ["black-disc"]', r"sweep.targets\[0\].*did you mean 'black-disk'"),
+        ("spp = 2", "spp = -2", r"render.spp: out of range"),
+        ("spp = 2", "sp = 2", r"render.sp: unknown key 'sp'"),
+        ('rigs = ["', 'rigs = ["nope/', r"sweep.rigs\[0\].*file not found"),
+    ]
+    for old, new, pattern in cases:
+        p = tiny(tmp_path)
+        p.write_text(p.read_text().replace(old, new))
+        with pytest.raises(ConfigError, match=pattern) as ei:
+            run_study(load_study(p), tmp_path / "x", serial=True, progress=False)
+        assert "\n" not in str(ei.value)
+    p = tiny(tmp_path, "[2.0, 1.0]")
+    with pytest.raises(ConfigError, match=r"sweep.distances_m: must be positive, increasing"):
+        load_study(p)
+
+
+def test_demo_study_is_valid_and_big_enough():
+    spec = load_study(ROOT / "studies" / "demo.toml")
+    assert len(spec.rigs) == 2 and len(spec.sensors) == 2
+    assert len(spec.waters) >= 4 and len(spec.distances_m) >= 6
+    quick = load_study(ROOT / "studies" / "demo.toml", quick=True)
+    assert len(quick.cases()) < len(spec.cases())
+
+
+@pytest.mark.render
+def test_report_is_self_contained(tmp_path):
+    from rigsim.report.html import write_report
+
+    out = run_study(load_study(tiny(tmp_path, "[1.0, 2.0]")), tmp_path / "r", serial=True, progress=False)
+    html = write_report(out).read_text()
+    assert "<img" in html and "data:image/png;base64," in html
+    assert "src='http" not in html and 'src="http' not in html  # opens offline
+    assert "twin-strobes-close-to-port" in html and "Visibility range" in html
