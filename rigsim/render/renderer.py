@@ -91,9 +91,11 @@ def _check_int(name: str, v, lo: int, hi: int | None = None) -> int:
     return iv
 
 
-def _check_coverage(scene: Scene, lo: float, hi: float) -> None:
+def _check_coverage(scene: Scene, lo: float, hi: float, centres: np.ndarray | None = None) -> None:
     if scene.water is not None:
-        scene.water.check_range([lo, hi])
+        # the IOPs must be defined at every band centre; within a band beyond the water's
+        # table (e.g. 700-705 nm for a table ending at 700 nm) the end value is held
+        scene.water.check_range([lo, hi] if centres is None else [float(centres[0]), float(centres[-1])])
     for light in scene.lights:
         wl = np.asarray(light.wavelength_nm, float)
         if wl.size == 0 or len(light.axial_intensity) != wl.size:
@@ -312,7 +314,7 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
         layers = layers + tuple(k for k in ("direct", "backscatter") if k not in layers)
     wl, bw = band_edges(wavelengths_nm, bandwidth_nm)
     lo_edges = wl - bw / 2
-    _check_coverage(scene, float(lo_edges[0]), float(wl[-1] + bw[-1] / 2))
+    _check_coverage(scene, float(lo_edges[0]), float(wl[-1] + bw[-1] / 2), centres=wl)
     if not is_jit():
         warnings.warn("rendering with a scalar Mitsuba variant: expect hours per image", RuntimeWarning,
                       stacklevel=2)
