@@ -535,11 +535,18 @@ def ambient_light_monte_carlo(water: Water, wavelength_nm, depth_m, *, sun_zenit
     zz = np.where(depths > 0, depths, kd0_depth)
     ed_z = np.where((depths > 0)[None, :, None], ed[:, :n_d, :], ed[:, n_d + 1: n_d + 2, :])
     with np.errstate(divide="ignore", invalid="ignore"):
-        kd_b = -np.log(ed_z / ed0[:, None, :]) / zz[None, :, None]
         ed_mean = ed.mean(axis=0)
         ed_z_mean = np.where((depths > 0)[:, None], ed_mean[:n_d], ed_mean[n_d + 1][None, :])
         values["Kd"] = -np.log(ed_z_mean / ed_mean[n_d][None, :]) / zz[:, None]
-        stderr["Kd"] = np.nanstd(kd_b, axis=0, ddof=1) / np.sqrt(batches)
+        # delta method with the batch covariance of Ed(z) and Ed(0-) (always finite when Ed(z) > 0)
+        dz_ = ed_z - ed_z.mean(axis=0)
+        d0_ = (ed0 - ed0.mean(axis=0))[:, None, :]
+        var_z = np.sum(dz_ ** 2, axis=0) / (batches - 1) / batches
+        var_0 = np.sum(d0_ ** 2, axis=0) / (batches - 1) / batches
+        cov = np.sum(dz_ * d0_, axis=0) / (batches - 1) / batches
+        var_ln = var_z / ed_z_mean ** 2 + var_0 / ed_mean[n_d][None, :] ** 2 \
+            - 2 * cov / (ed_z_mean * ed_mean[n_d][None, :])
+        stderr["Kd"] = np.sqrt(np.maximum(var_ln, 0.0)) / zz[:, None]
     budget = {k: v.mean(axis=0) for k, v in budget_b.items()}
     meta = {
         "model": "monte-carlo",
