@@ -8,27 +8,25 @@ import typer
 
 from rigsim.cli import app
 
+#: The demo study shipped with rigsim.
+DEMO_STUDY = Path(__file__).resolve().parents[2] / "studies" / "demo.toml"
+
 
 @app.command("demo")
 def demo(out: Path = typer.Option(Path("out/demo"), "--out", help="Output folder."),
-         quick: bool = typer.Option(False, "--quick", help="Smallest sizes (CI).")):
-    """Run the demo: until the visibility study lands, the water-optics figure and IOP tables
-    of the six original presets and four Jerlov types."""
-    import json
-
-    import numpy as np
-
-    from rigsim.fileio import atomic_write_text
+         quick: bool = typer.Option(False, "--quick", help="The study's small [quick] variant (CI)."),
+         serial: bool = typer.Option(False, "--serial", help="Run without dask.")):
+    """Run the demo study (strobes beside the port vs edge lighting, two sensors, four waters,
+    six distances) and write its HTML report, plus the water-optics figure of the presets."""
+    from rigsim.report.html import write_report
     from rigsim.report.water_plot import plot_waters
+    from rigsim.study import load_study, run_study
     from rigsim.water import preset
 
-    names = ["pure-sea", "clear", "oceanic", "coastal", "coastal-regions", "lakes-and-rivers",
-             "jerlov-IB", "jerlov-II", "jerlov-1C", "jerlov-5C"]
-    waters = [preset(n) for n in names]
-    out.mkdir(parents=True, exist_ok=True)
-    fig = plot_waters(waters[:6], out / "water_presets.png")
-    plot_waters(waters[6:], out / "water_jerlov.png")
-    wl = np.arange(400.0, 701.0, 10.0)
-    tables = {w.name: {k: v.tolist() for k, v in w.iop_table(wl).items()} for w in waters}
-    atomic_write_text(out / "water_iops.json", json.dumps(tables, indent=1))
-    typer.echo(f"report: {fig.resolve()}")
+    spec = load_study(DEMO_STUDY, quick=quick)
+    run_study(spec, out, serial=serial)
+    plot_waters([preset(n) for n in ("pure-sea", "clear", "oceanic", "coastal", "coastal-regions",
+                                      "lakes-and-rivers", "jerlov-II")], out / "water_presets.png")
+    report = write_report(out)
+    typer.echo(f"water optics figure: {(out / 'water_presets.png').resolve()}")
+    typer.echo(f"report: {report.resolve()}")

@@ -122,10 +122,18 @@ def write_report(study_dir: str | Path) -> Path:
         return _png(fig)
 
     for t in targets:
-        if any(r.get("contrast_radiance") is not None and r["target"] == t for r in rows):
-            sec.append(f"<h2>Contrast versus distance — {html.escape(t)}</h2>"
-                       f"<img src='{per_water_plot('contrast_radiance', 'contrast (radiance)', logy=True, hline=thr, target=t)}'>"
-                       f"<img src='{per_water_plot('contrast_image', 'contrast (developed image)', logy=True, hline=thr, target=t)}'>")
+        parts = []
+        for col, label, logy, hline in (
+                ("contrast_radiance", "contrast (scene radiance)", True, thr),
+                ("contrast_image", "contrast (developed image)", True, thr),
+                ("delta_e_mean", "mean ΔE2000 of the chart", False, None),
+                ("snr_white", "sensor SNR (EMVA 1288) of the reference region", True, None),
+                ("backscatter_share", "backscatter share of the target's signal", False, None)):
+            if any(r.get(col) is not None and r["target"] == t for r in rows):
+                parts.append(f"<h3>{html.escape(label[0].upper() + label[1:])}</h3>"
+                             f"<img src='{per_water_plot(col, label, logy=logy, hline=hline, target=t)}'>")
+        if parts:
+            sec.append(f"<h2>Versus distance — {html.escape(t)}</h2>" + "".join(parts))
     if vis:
         fig, axes = plt.subplots(1, len(targets), figsize=(6 * len(targets), 3.8), squeeze=False)
         for ax, t in zip(axes[0], targets):
@@ -150,12 +158,6 @@ def write_report(study_dir: str | Path) -> Path:
         sec.append(f"<h2>Visibility range</h2><img src='{_png(fig)}'>"
                    "<p>Bars at the largest distance mean the contrast stayed above the threshold over the whole "
                    "sweep.</p>")
-    for col, label in (("delta_e_mean", "mean ΔE2000 of the chart"), ("snr_white", "SNR of the white patch"),
-                       ("backscatter_share", "backscatter share of the signal")):
-        if any(r.get(col) is not None for r in rows):
-            sec.append(f"<h2>{html.escape(label[0].upper() + label[1:])} versus distance</h2>"
-                       f"<img src='{per_water_plot(col, label, logy=(col == 'snr_white'))}'>")
-
     # ------------------------------------------------------------------ image grids
     for rig in rigs:
         for s in sensors:
