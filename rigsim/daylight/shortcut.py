@@ -57,7 +57,7 @@ def irradiance_reflectance_Gordon1975(a_per_m, bb_per_m) -> np.ndarray:
     Examples
     --------
     >>> round(float(irradiance_reflectance_Gordon1975(0.1, 0.01)), 4)
-    0.0307
+    0.0309
     """
     a, bb = np.asarray(a_per_m, float), np.asarray(bb_per_m, float)
     x = np.divide(bb, a + bb, out=np.zeros(np.broadcast(a, bb).shape), where=(a + bb) > 0)

@@ -118,7 +118,7 @@ def radiance_CIE_general_sky(cos_zenith, rel_azimuth_rad, sun_zenith_deg: float,
 
     Examples
     --------
-    >>> float(radiance_CIE_general_sky(1.0, 0.0, 30.0, (-1, -0.32, 10, -3, 0.45)))  # zenith
+    >>> round(float(radiance_CIE_general_sky(1.0, 0.0, 30.0, (-1, -0.32, 10, -3, 0.45))), 12)  # zenith
     1.0
     """
     a, b, c, d, e = params

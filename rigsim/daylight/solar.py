@@ -101,7 +101,7 @@ def air_mass_KastenYoung1989(sun_zenith_deg) -> np.ndarray:
     >>> round(float(air_mass_KastenYoung1989(0.0)), 4)
     0.9997
     >>> round(float(air_mass_KastenYoung1989(60.0)), 3)
-    1.995
+    1.994
     """
     z = np.asarray(sun_zenith_deg, float)
     return 1.0 / (np.cos(np.radians(z)) + 0.50572 * (96.07995 - z) ** -1.6364)
