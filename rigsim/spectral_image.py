@@ -138,3 +138,44 @@ def _json_default(o):
     if isinstance(o, Path):
         return str(o)
     raise TypeError(f"not JSON serialisable: {type(o)}")
+
+
+def xyz_from_spectral(spectral: np.ndarray, wavelength_nm, bandwidth_nm) -> np.ndarray:
+    """CIE 1931 2° tristimulus values ``∑ S(λ) x̄ȳz̄(λ) Δλ`` of a spectral array (..., bands) → (..., 3).
+
+    In the unit of the input times nm (e.g. W·m⁻²·sr⁻¹ for radiance); multiply Y by
+    683 lm/W for luminance in cd/m².
+    """
+    import colour
+
+    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
+    wl = np.asarray(wavelength_nm, float)
+    m = np.stack([np.interp(wl, cmfs.wavelengths, cmfs.values[:, k], left=0, right=0) for k in range(3)], -1)
+    return np.asarray(spectral, float) @ (m * np.asarray(bandwidth_nm, float)[:, None])
+
+
+def srgb_preview(image: SpectralImage, *, exposure_s: float = 1.0, layer: str | None = None,
+                 percentile: float = 99.0, level: float = 0.8, scale: float | None = None
+                 ) -> tuple[np.ndarray, dict]:
+    """An 8-bit sRGB picture of a spectral image as a colorimeter would see it (no camera).
+
+    The radiant exposure (continuous × ``exposure_s`` + flash) is converted to CIE XYZ,
+    white-balanced to nothing (D65 display white), scaled so that the ``percentile`` of Y
+    maps to ``level`` (or by the given ``scale``), and encoded as sRGB (IEC 61966-2-1).
+
+    Returns the (rows, cols, 3) uint8 image and a dict stating the exposure used.
+    """
+    import colour
+
+    h = image.radiant_exposure(exposure_s, layer)
+    xyz = xyz_from_spectral(h, image.wavelength_nm, image.bandwidth_nm)
+    if scale is None:
+        y = xyz[..., 1]
+        ref = float(np.percentile(y[np.isfinite(y)], percentile)) if np.isfinite(y).any() else 0.0
+        scale = level / ref if ref > 0 else 1.0
+    rgb = colour.XYZ_to_sRGB(xyz * scale, apply_cctf_encoding=False)
+    enc = colour.cctf_encoding(np.clip(rgb, 0, 1), function="sRGB")
+    out = np.rint(np.clip(enc, 0, 1) * 255).astype(np.uint8)
+    return out, {"exposure_s": exposure_s, "percentile": percentile, "level": level, "xyz_scale": scale,
+                 "observer": "CIE 1931 2 degree", "note": "Y (in units of the radiant exposure x nm) times "
+                 "xyz_scale maps to display white 1.0"}
