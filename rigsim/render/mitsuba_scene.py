@@ -92,7 +92,7 @@ def water_medium_dict(water, *, albedo_zero: bool = False, phase=None) -> dict:
 
 
 def build_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: int = -1,
-                        rr_depth: int = 5) -> MitsubaScene:
+                        rr_depth: int = 5, phase=None) -> MitsubaScene:
     """Load the Mitsuba scene of one render pass.
 
     Parameters
@@ -106,6 +106,9 @@ def build_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: 
         One of :data:`MODES`.
     max_depth, rr_depth
         Path length limit (−1: none) and the depth at which Russian roulette starts.
+    phase
+        Replace the water's phase function by this Mitsuba phase (dict or object),
+        e.g. ``{"type": "hg", "g": 0.9}`` for comparisons.
     """
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}")
@@ -115,7 +118,7 @@ def build_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: 
                "integrator": {"type": "volpath", "max_depth": int(max_depth), "rr_depth": int(rr_depth)}}
     has_water = scene.water is not None and mode != "clear"
     if has_water:
-        d[MEDIUM_KEY] = water_medium_dict(scene.water, albedo_zero=(mode == "direct"))
+        d[MEDIUM_KEY] = water_medium_dict(scene.water, albedo_zero=(mode == "direct"), phase=phase)
         d[WATER_KEY] = {"type": "sphere", "center": [float(x) for x in scene.camera.position_m], "radius": R,
                         "bsdf": {"type": "null"}, "interior": {"type": "ref", "id": MEDIUM_KEY}}
     for s in surfaces:
