@@ -26,13 +26,12 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from rigsim.render.mitsuba_scene import build_mitsuba_scene  # noqa: E402
-from rigsim.render.renderer import band_edges, render_pass  # noqa: E402
-from rigsim.render.variant import mitsuba, variant  # noqa: E402
-from rigsim.scene.types import BeamPattern, Camera, Light, Port, Rig, Scene, Target  # noqa: E402
-from rigsim.spectrum import DEFAULT_WAVELENGTHS_NM  # noqa: E402
-from rigsim.water import preset  # noqa: E402
-
+from rigsim.render.mitsuba_scene import build_mitsuba_scene
+from rigsim.render.renderer import band_edges, render_pass
+from rigsim.render.variant import mitsuba, variant
+from rigsim.scene.types import BeamPattern, Camera, Light, Port, Rig, Scene, Target
+from rigsim.spectrum import DEFAULT_WAVELENGTHS_NM
+from rigsim.water import preset
 
 mi, dr = mitsuba()
 

@@ -12,4 +12,4 @@ Importing this package loads Mitsuba; import it only where rendering is needed.
 
 from rigsim.render.renderer import RENDER_LAYERS, band_edges, render
 
-__all__ = ["render", "band_edges", "RENDER_LAYERS"]
+__all__ = ["RENDER_LAYERS", "band_edges", "render"]

@@ -32,7 +32,7 @@ from rigsim.render.variant import mitsuba
 from rigsim.scene.types import Camera, unit
 from rigsim.water.kd import WATER_INDEX
 
-__all__ = ["camera_frame", "fov_water_deg", "flat_port_angle_water", "generate_rays", "tan_half_fov"]
+__all__ = ["camera_frame", "flat_port_angle_water", "fov_water_deg", "generate_rays", "tan_half_fov"]
 
 mi, dr = mitsuba()
 

@@ -26,7 +26,7 @@ from rigsim.render.variant import mitsuba
 from rigsim.scene.types import BeamPattern, Light, unit
 from rigsim.spectrum import MITSUBA_WAVELENGTH_RANGE_NM
 
-__all__ = ["BeamPointEmitter", "make_emitter", "PLUGIN_NAME"]
+__all__ = ["PLUGIN_NAME", "BeamPointEmitter", "make_emitter"]
 
 mi, dr = mitsuba()
 
@@ -57,7 +57,7 @@ class BeamPointEmitter(mi.Emitter):
             self.configure(np.asarray(props["position"], float), np.asarray(props.get("aim", [0, 0, 1]), float),
                            beam, intensity)
 
-    def configure(self, position, aim, beam: BeamPattern, intensity_texture) -> "BeamPointEmitter":
+    def configure(self, position, aim, beam: BeamPattern, intensity_texture) -> BeamPointEmitter:
         """Set position (m), beam axis, pattern and the intensity spectrum (a Mitsuba texture)."""
         p = np.asarray(position, float)
         a = unit(aim)

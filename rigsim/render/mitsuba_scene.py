@@ -30,8 +30,14 @@ from rigsim.render.targets import MitsubaSurface, mitsuba_surfaces
 from rigsim.render.variant import mitsuba
 from rigsim.scene.types import Scene
 
-__all__ = ["MODES", "MitsubaScene", "build_mitsuba_scene", "water_medium_dict", "world_radius",
-           "C_FLOOR_PER_M"]
+__all__ = [
+    "C_FLOOR_PER_M",
+    "MODES",
+    "MitsubaScene",
+    "build_mitsuba_scene",
+    "water_medium_dict",
+    "world_radius",
+]
 
 mi, dr = mitsuba()
 

@@ -49,8 +49,15 @@ from rigsim.render.variant import mitsuba
 from rigsim.spectrum import MITSUBA_WAVELENGTH_RANGE_NM
 from rigsim.water.phase import DEFAULT_GRID, LogAngleGrid, MixturePhase, PhaseFunction
 
-__all__ = ["PhaseTables", "phase_tables", "WaterPhaseFunction", "make_phase", "PLUGIN_NAME",
-           "DEFENSIVE_FRACTION", "WEIGHT_STEP_NM"]
+__all__ = [
+    "DEFENSIVE_FRACTION",
+    "PLUGIN_NAME",
+    "WEIGHT_STEP_NM",
+    "PhaseTables",
+    "WaterPhaseFunction",
+    "make_phase",
+    "phase_tables",
+]
 
 mi, dr = mitsuba()
 
@@ -167,7 +174,7 @@ class WaterPhaseFunction(mi.PhaseFunction):
             self.set_tables(phase_tables(w.phase, w.wavelength_range_nm))
 
     # -- set-up ---------------------------------------------------------------------
-    def set_tables(self, t: PhaseTables) -> "WaterPhaseFunction":
+    def set_tables(self, t: PhaseTables) -> WaterPhaseFunction:
         """Load the tables into Dr.Jit arrays (alias tables, realised cell densities, weights)."""
         g = t.grid
         n = g.n_cells

@@ -32,15 +32,19 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from rigsim.errors import ConfigError
+from rigsim.errors import ConfigError, RigsimError
 from rigsim.render.camera import camera_frame, fov_water_deg, generate_rays
 from rigsim.render.mitsuba_scene import MitsubaScene, build_mitsuba_scene, world_radius
 from rigsim.render.variant import is_jit, mitsuba, variant
 from rigsim.scene.types import Scene
 from rigsim.spectral_image import SpectralImage
-from rigsim.spectrum import DEFAULT_WAVELENGTHS_NM, MITSUBA_WAVELENGTH_RANGE_NM, as_wavelengths
+from rigsim.spectrum import (
+    DEFAULT_WAVELENGTHS_NM,
+    MITSUBA_WAVELENGTH_RANGE_NM,
+    as_wavelengths,
+)
 
-__all__ = ["render", "render_pass", "band_edges", "RENDER_LAYERS", "MAX_LANES"]
+__all__ = ["MAX_LANES", "RENDER_LAYERS", "band_edges", "render", "render_pass"]
 
 mi, dr = mitsuba()
 
@@ -316,12 +320,12 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
     lo_edges = wl - bw / 2
     _check_coverage(scene, float(lo_edges[0]), float(wl[-1] + bw[-1] / 2), centres=wl)
     if not is_jit():
-        warnings.warn("rendering with a scalar Mitsuba variant: expect hours per image", RuntimeWarning,
-                      stacklevel=2)
+        raise RigsimError(f"rendering needs a vectorised Mitsuba variant (llvm_ad_spectral or cuda_ad_spectral); "
+                          f"only {variant()} is available — install libLLVM (e.g. `apt install libllvm19`)")
     if scene.daylight is not None:
         warnings.warn("daylight is not rendered by rigsim.render yet; only the rig's lights are",
                       RuntimeWarning, stacklevel=2)
-    f, _, _ = camera_frame(scene.camera)  # validates forward/up
+    camera_frame(scene.camera)  # validates forward/up
     if abs(width / height - scene.camera.sensor_width_mm / scene.camera.sensor_height_mm) > 0.02 * width / height:
         warnings.warn(f"image aspect {width}x{height} differs from the sensor's "
                       f"{scene.camera.sensor_width_mm}x{scene.camera.sensor_height_mm} mm; "

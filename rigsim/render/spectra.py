@@ -14,7 +14,7 @@ import numpy as np
 from rigsim.errors import ConfigError
 from rigsim.spectrum import MITSUBA_WAVELENGTH_RANGE_NM, extend_to_range
 
-__all__ = ["spectrum_dict", "regular_dict", "REGULAR_STEP_NM"]
+__all__ = ["REGULAR_STEP_NM", "regular_dict", "spectrum_dict"]
 
 #: Spacing of spectra resampled from functions of wavelength (nm).
 REGULAR_STEP_NM = 1.0

@@ -56,7 +56,7 @@ class MitsubaSurface:
     target_index: int
 
 
-def _transform(m) -> "mi.ScalarTransform4f":
+def _transform(m) -> mi.ScalarTransform4f:
     return mi.ScalarTransform4f(np.asarray(m, float).tolist())
 
 

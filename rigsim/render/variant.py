@@ -14,13 +14,13 @@ import warnings
 
 from rigsim.errors import RigsimError
 
-__all__ = ["mitsuba", "variant", "is_jit", "PREFERRED_VARIANTS"]
+__all__ = ["PREFERRED_VARIANTS", "is_jit", "mitsuba", "variant"]
 
 #: Variants tried in order.
 PREFERRED_VARIANTS = ("cuda_ad_spectral", "llvm_ad_spectral", "scalar_spectral")
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _setup() -> tuple[object, object, str]:
     try:
         import drjit as dr

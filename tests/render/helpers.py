@@ -9,8 +9,8 @@ from rigsim.scene.types import BeamPattern, Camera, Light, Port, Rig, Scene, Tar
 
 pytest.importorskip("mitsuba")
 
-from rigsim.render.camera import camera_frame, generate_rays  # noqa: E402
-from rigsim.render.variant import mitsuba  # noqa: E402
+from rigsim.render.camera import camera_frame, generate_rays
+from rigsim.render.variant import mitsuba
 
 mi, dr = mitsuba()
 

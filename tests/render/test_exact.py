@@ -11,7 +11,6 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from tests.render.helpers import disk_scene, make_camera, make_light, reference_direct, relative_error
 from rigsim.render import render
 from rigsim.render.mitsuba_scene import MitsubaScene, water_medium_dict
 from rigsim.render.renderer import band_edges, render_pass
@@ -20,6 +19,13 @@ from rigsim.scene.types import BeamPattern
 from rigsim.water import preset
 from rigsim.water.model import Spectrum1D, TabulatedWater
 from rigsim.water.phase import HenyeyGreenstein
+from tests.render.helpers import (
+    disk_scene,
+    make_camera,
+    make_light,
+    reference_direct,
+    relative_error,
+)
 
 pytestmark = pytest.mark.render
 mi, dr = mitsuba()

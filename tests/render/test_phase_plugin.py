@@ -5,12 +5,16 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from scipy import stats
 
 from rigsim.render.phase_plugin import DEFENSIVE_FRACTION, make_phase, phase_tables
 from rigsim.render.variant import mitsuba
 from rigsim.water import preset
-from rigsim.water.phase import DEFAULT_GRID, HenyeyGreenstein, MixturePhase, RayleighWater
+from rigsim.water.phase import (
+    DEFAULT_GRID,
+    HenyeyGreenstein,
+    MixturePhase,
+    RayleighWater,
+)
 from tests.stats import chi2_gof
 
 pytestmark = pytest.mark.render

@@ -210,3 +210,32 @@ def test_mesh_target(tmp_path):
     assert oid[4, 6] == 1 and oid[0, 0] == 0
     assert img.layers["clear"][4, 6, 0] > 0
     assert img.layers["range_m"][4, 6] == pytest.approx(1.0, rel=1e-3)
+
+
+def test_emitter_light_tracing_and_pattern():
+    """sample_ray (light tracing) and sample_direction agree with I(λ) f(θ)."""
+    from rigsim.render.emitter_plugin import make_emitter
+    from rigsim.scene.types import BeamPattern
+
+    light = make_light("continuous", position=(0.0, 0.0, 0.0), aim=(0.0, 0.0, 1.0), intensity=2.0,
+                       beam=BeamPattern(beam_angle_deg=60.0, edge_exponent=2.0))
+    em = make_emitter(light)
+    n = 20000
+    rng = np.random.default_rng(0)
+    ray, w = em.sample_ray(0.0, mi.Float(rng.random(n)), mi.Point2f(0.5, 0.5),
+                           mi.Point2f(rng.random(n), rng.random(n)))
+    d = np.array(ray.d, float).T
+    w = np.array(w, float)
+    theta = np.arccos(np.clip(d[:, 2], -1, 1))
+    assert np.all(np.isfinite(w)) and np.all(w[:, theta >= np.pi / 2] == 0)
+    # E[weight] = ∫ I f dΩ × (spectral integral of I / I) — compare the direction profile:
+    f = light.beam.relative_intensity(theta)
+    ratio = w[0][f > 0.1] / f[f > 0.1]
+    assert np.allclose(ratio, ratio[0], rtol=1e-4)
+    # next-event estimation at 2 m, 30° off the axis: I f(30°) / d² with f(30°) = 1/2
+    it = dr.zeros(mi.Interaction3f, 1)
+    it.p = mi.Point3f(float(2 * np.sin(np.radians(30))), 0.0, float(2 * np.cos(np.radians(30))))
+    it.wavelengths = mi.Spectrum(450.0, 500.0, 550.0, 600.0)
+    ds, val = em.sample_direction(it, mi.Point2f(0.5, 0.5))
+    assert np.allclose(np.array(val, float).ravel(), 2.0 * 0.5 / 4.0, rtol=1e-5)
+    assert bool(np.array(ds.delta)[0]) and float(np.array(ds.dist)[0]) == pytest.approx(2.0, rel=1e-6)
