@@ -259,6 +259,12 @@ def _target_reflectance(target: Target, default) -> np.ndarray:
     return default
 
 
+def _rotate_pair(a: np.ndarray, b: np.ndarray, angle_deg: float) -> tuple[np.ndarray, np.ndarray]:
+    """Rotate two orthonormal vectors by ``angle_deg`` within their plane."""
+    t = np.radians(angle_deg)
+    return np.cos(t) * a + np.sin(t) * b, -np.sin(t) * a + np.cos(t) * b
+
+
 def target_surfaces(target: Target, camera: Camera) -> tuple[Surface, ...]:
     """Explicit geometry of a target in world coordinates (see the module notes for placement).
 
@@ -275,7 +281,11 @@ def target_surfaces(target: Target, camera: Camera) -> tuple[Surface, ...]:
     a = np.radians(target.tilt_deg)
     u = np.cos(a) * right + np.sin(a) * up     # rotated "right" (counter-clockwise seen from the camera)
     v = -np.sin(a) * right + np.cos(a) * up
-    centre = pupil + target.distance_m * fwd
+    if target.yaw_deg or target.pitch_deg:     # turn away from facing the camera: about v, then about u
+        u, toward = _rotate_pair(u, toward, target.yaw_deg)
+        v, toward = _rotate_pair(v, toward, target.pitch_deg)
+    ox, oy = (float(x) for x in target.offset_m)
+    centre = pupil + target.distance_m * fwd + ox * right + oy * up
     size = float(target.size_m)
     kind = target.kind
 

@@ -196,6 +196,12 @@ class Target:
         Reflectance spectrum for disks, meshes and the bottom (0…1).
     tilt_deg
         Rotation about the optical axis (slanted edge: 5° by ISO 12233).
+    offset_m
+        Lateral offset of the centre from the optical axis, (right, up) in the camera
+        frame (m); the centre lies on the plane at ``distance_m`` ahead.
+    yaw_deg, pitch_deg
+        Turn of the target away from facing the camera: about its own vertical axis,
+        then about its own horizontal axis (deg).
     """
 
     kind: str
@@ -205,6 +211,9 @@ class Target:
     reflectance_wavelength_nm: tuple[float, ...] = ()
     reflectance: tuple[float, ...] = ()
     tilt_deg: float = 0.0
+    offset_m: tuple[float, float] = (0.0, 0.0)
+    yaw_deg: float = 0.0
+    pitch_deg: float = 0.0
 
 
 @dataclass(frozen=True)

@@ -51,25 +51,15 @@ def _store(out: Path, spec: StudySpec, case: Case, result: dict) -> None:
     atomic_write_text(d / "result.json", json.dumps(record, indent=1, default=float))  # completion marker
 
 
-def _run_one(spec: StudySpec, case: Case) -> dict:
+def _run_one(args: tuple[StudySpec, Case]) -> dict:
     """Worker side: compute one case (imports inside so workers load only what they need)."""
     from rigsim.study.case import compute_case
 
+    spec, case = args
     t0 = time.perf_counter()
     res = compute_case(spec, case)
     res.setdefault("meta", {})["wall_time_s"] = time.perf_counter() - t0
     return res
-
-
-def _progress(total: int, done: int, enabled: bool):
-    from rich.progress import (BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn,
-                               TimeRemainingColumn)
-
-    prog = Progress(TextColumn("[bold]study[/bold]"), BarColumn(), MofNCompleteColumn(),
-                    TextColumn("elapsed"), TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(),
-                    disable=not enabled, transient=False)
-    task = prog.add_task("cases", total=total, completed=done)
-    return prog, task
 
 
 def run_study(spec: StudySpec, out: str | Path, *, scheduler: str | None = None, workers: int | None = None,
@@ -99,46 +89,16 @@ def run_study(spec: StudySpec, out: str | Path, *, scheduler: str | None = None,
     -------
     The study folder.
     """
+    from rigsim.parallel import run_tasks
+
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out / "study.json", json.dumps(spec.describe(), indent=1, default=str))
-    cases = spec.cases()
-    todo = pending_cases(spec, out)
-    done0 = len(cases) - len(todo)
-    if done0:
-        log.info("resuming: %d of %d cases already finished", done0, len(cases))
-    prog, task = _progress(len(cases), done0, progress)
-    with prog:
-        if serial or not todo:
-            for case in todo:
-                _store(out, spec, case, _run_one(spec, case))
-                prog.advance(task)
-                if on_case_done:
-                    on_case_done(case)
-        else:
-            from dask.distributed import Client, LocalCluster, as_completed
-
-            logging.getLogger("distributed").setLevel(logging.ERROR)
-            cluster = None
-            if scheduler:
-                client = Client(scheduler)
-            else:
-                cluster = LocalCluster(n_workers=workers or 1, threads_per_worker=1, processes=True,
-                                       dashboard_address=":0", silence_logs=logging.ERROR)
-                client = Client(cluster)
-            try:
-                futures = {client.submit(_run_one, spec, case, pure=False, key=f"case-{spec.case_id(case)}"): case
-                           for case in todo}
-                for fut in as_completed(futures):
-                    case = futures[fut]
-                    _store(out, spec, case, fut.result())
-                    prog.advance(task)
-                    if on_case_done:
-                        on_case_done(case)
-            finally:
-                client.close()
-                if cluster is not None:
-                    cluster.close()
+    run_tasks([(spec, c) for c in spec.cases()], _run_one, lambda it, res: _store(out, spec, it[1], res),
+              is_done=lambda it: (_case_dir(out, spec, it[1]) / "result.json").is_file(),
+              key=lambda it: spec.case_id(it[1]), scheduler=scheduler, workers=workers, serial=serial,
+              progress=progress, label="study",
+              on_done=(lambda it: on_case_done(it[1])) if on_case_done else None)
     assemble_tables(spec, out)
     return out
 
