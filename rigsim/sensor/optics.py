@@ -127,3 +127,30 @@ def photons_per_pixel(radiance, wavelength_nm, bandwidth_nm, *, lens: Lens, pixe
     m = electrons_per_radiance(wavelength_nm, bandwidth_nm, np.ones((len(wavelength_nm), 1)),
                                lens=lens, pixel_area_m2=pixel_area_m2, exposure_time_s=exposure_time_s)
     return np.asarray(radiance, float) * m[:, 0]
+
+
+def port_radiance_factor(meta: dict | None) -> float:
+    """Factor from the in-water radiance a render reports to the radiance in air behind the port.
+
+    The basic radiance L/n² is conserved along a ray through lossless interfaces
+    (radiance theorem; e.g. Mobley, *Light and Water* 1994, §4.3), so the housing's air
+    side sees ``L_air = T_port · L_water / n_water²`` — for a dome or a flat port alike
+    (the dome changes where the image forms, not its radiance).  T_port is the Fresnel
+    transmittance at normal incidence of the water→glass and glass→air surfaces,
+    ``(1 − R₁)(1 − R₂)`` with ``R = ((n₁ − n₂)/(n₁ + n₂))²``; glass absorption is neglected.
+
+    Renders whose ``meta['radiance_reference']`` says the radiance is in water and that
+    have water (``meta['water']``) get this factor; anything else (renders without water,
+    real photographs) gets 1.
+    """
+    meta = meta or {}
+    if not str(meta.get("radiance_reference", "")).startswith("in-water") or not meta.get("water"):
+        return 1.0
+    from rigsim.water.kd import WATER_INDEX
+
+    port = (meta.get("camera") or {}).get("port") or {}
+    ng = float(port.get("glass_index", 1.49))
+    nw = WATER_INDEX
+    r1 = ((nw - ng) / (nw + ng)) ** 2
+    r2 = ((ng - 1.0) / (ng + 1.0)) ** 2
+    return (1 - r1) * (1 - r2) / nw**2

@@ -23,7 +23,7 @@ from rigsim.sensor.ccm import ccm_ColorChecker
 from rigsim.sensor.demosaic import demosaic as _demosaic
 from rigsim.sensor.model import Sensor
 from rigsim.sensor.noise import NoiseSwitches, digitise_emva1288, electrons_emva1288
-from rigsim.sensor.optics import Lens, cos4_map, electrons_per_radiance
+from rigsim.sensor.optics import Lens, cos4_map, electrons_per_radiance, port_radiance_factor
 from rigsim.sensor.white_balance import white_balance_gains
 
 log = logging.getLogger(__name__)
@@ -212,8 +212,9 @@ class Capture:
 def mean_electrons_rgb(spectral_image, sensor: Sensor, exposure: Exposure) -> np.ndarray:
     """(rows, cols, 3) float32 mean photo-electrons per pixel if each pixel had each CFA filter.
 
-    Camera equation (see :mod:`rigsim.sensor.optics`) with the sensor's pixel area, applied
-    to the radiant exposure: continuous radiance × shutter time plus ``flash_scale`` × the
+    Camera equation (see :mod:`rigsim.sensor.optics`) with the sensor's pixel area and the
+    housing port (:func:`~rigsim.sensor.optics.port_radiance_factor`), applied to the radiant
+    exposure: continuous radiance × shutter time plus ``flash_scale`` × the
     render's ``flash`` layer (strobes).  cos⁴ vignetting if ``exposure.lens.vignetting`` and
     the render states its field of view (``meta['fov_water_x_deg']`` or ``meta['fov_deg']``).
     """
@@ -227,6 +228,7 @@ def _electrons_parts(si, sensor: Sensor, exposure: Exposure) -> tuple[np.ndarray
     qe = sensor.qe_at(si.wavelength_nm)
     m = electrons_per_radiance(si.wavelength_nm, si.bandwidth_nm, qe, lens=exposure.lens,
                                pixel_area_m2=sensor.pixel_area_m2, exposure_time_s=1.0)
+    m = m * port_radiance_factor(si.meta)  # in-water radiance → radiance in air behind the port
     rows, cols, nb = np.shape(si.radiance)
 
     def apply(layer):

@@ -69,3 +69,21 @@ def test_snr_emva1288_limits():
     # read-noise limit: SNR -> mu / sigma_d for tiny signals
     sd = s.iso_setting(100).read_noise_e
     assert snr_emva1288(1e-3, s, iso=100, exposure_time_s=1e-6) == pytest.approx(1e-3 / sd, rel=0.05)
+
+
+def test_port_radiance_factor():
+    from rigsim.sensor.optics import port_radiance_factor
+
+    meta = {"radiance_reference": "in-water radiance arriving at the port", "water": {"name": "clear"},
+            "camera": {"port": {"glass_index": 1.49}}}
+    r1 = ((1.34 - 1.49) / (1.34 + 1.49)) ** 2
+    r2 = (0.49 / 2.49) ** 2
+    assert port_radiance_factor(meta) == pytest.approx((1 - r1) * (1 - r2) / 1.34**2)
+    assert port_radiance_factor({**meta, "water": None}) == 1.0
+    assert port_radiance_factor({}) == 1.0
+    s = load_sensor("sony_ilce-7rm2")
+    si = _si(0.0, 1e-4)
+    e_air = mean_electrons_rgb(si, s, Exposure(0.01, 100))
+    si_w = SpectralImage(si.radiance, si.wavelength_nm, si.bandwidth_nm, si.layers, meta)
+    np.testing.assert_allclose(mean_electrons_rgb(si_w, s, Exposure(0.01, 100)), e_air * port_radiance_factor(meta),
+                               rtol=1e-5)
