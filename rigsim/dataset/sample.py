@@ -1,0 +1,218 @@
+"""Drawing one sample of a dataset and computing its image and ground truth.
+
+Determinism: sample ``i`` of a dataset with seed ``S`` draws every parameter from
+``numpy.random.default_rng([S, i])`` and renders and captures with seeds derived
+from it, so it is the same image whichever worker computes it and in whatever order.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+
+import numpy as np
+
+from rigsim.dataset.spec import DatasetSpec
+
+__all__ = ["draw_sample", "compute_sample", "reflectance_library"]
+
+
+@functools.lru_cache(maxsize=None)
+def reflectance_library(name: str) -> tuple[np.ndarray, np.ndarray, tuple[str, ...]]:
+    """(wavelength_nm, reflectances (n, bands), labels) of a named spectral library (0…1).
+
+    ``training``: the 190 reflectances of the RAW to ACES v1 training set shipped with
+    colour-science (``colour.characterisation.read_training_data_rawtoaces_v1``, 380–780 nm);
+    ``colorchecker``: the 24 ColorChecker patches (Ohta, colour-science).
+    """
+    import colour
+
+    if name == "training":
+        msd = colour.characterisation.read_training_data_rawtoaces_v1()
+        wl = np.asarray(msd.wavelengths, float)
+        return wl, np.clip(np.asarray(msd.values, float).T, 0.0, 1.0), tuple(str(x) for x in msd.labels)
+    sds = colour.SDS_COLOURCHECKERS["ColorChecker N Ohta"]
+    wl = np.arange(380.0, 781.0, 5.0)
+    vals = np.array([sd.copy().align(colour.SpectralShape(380, 780, 5)).values for sd in sds.values()])
+    return wl, np.clip(vals, 0, 1), tuple(sds.keys())
+
+
+def _uniform(rng, r):
+    return float(rng.uniform(r[0], r[1])) if r[1] > r[0] else float(r[0])
+
+
+def _loguniform(rng, r):
+    return float(math.exp(rng.uniform(math.log(r[0]), math.log(r[1])))) if r[1] > r[0] else float(r[0])
+
+
+def draw_sample(spec: DatasetSpec, index: int, seed: int) -> dict:
+    """All random choices of sample ``index`` (JSON-serialisable)."""
+    rng = np.random.default_rng([int(seed), int(index)])
+    rec: dict = {"index": int(index), "seed": int(seed)}
+    if spec.presets and rng.random() >= spec.constituent_probability:
+        rec["water"] = {"preset": str(rng.choice(spec.presets))}
+    else:
+        rec["water"] = {"chl_mg_per_m3": _loguniform(rng, spec.chl_mg_per_m3),
+                        "cdom_a440_per_m": _loguniform(rng, spec.cdom_a440_per_m),
+                        "small_particles_ppm": _uniform(rng, spec.small_particles_ppm),
+                        "large_particles_ppm": _uniform(rng, spec.large_particles_ppm)}
+    rec["rig"] = str(rng.choice(spec.rigs))
+    rec["power_fraction"] = _uniform(rng, spec.power_fraction)
+    rec["sensor"] = str(rng.choice(spec.sensors))
+    d = _uniform(rng, spec.distance_m)
+    n = int(rng.integers(spec.objects[0], spec.objects[1] + 1))
+    wl, lib, labels = reflectance_library(spec.reflectances)
+    objects = []
+    for k in range(n):
+        kind = str(rng.choice(spec.kinds))
+        obj = {"kind": kind, "distance_m": d * _uniform(rng, (0.85, 1.15)),
+               "size_fraction": _uniform(rng, spec.size_fraction),
+               # centre within the central 70 % of the frame (fractions of the half-width/height)
+               "offset_frac": [float(rng.uniform(-0.7, 0.7)), float(rng.uniform(-0.7, 0.7))],
+               "yaw_deg": float(rng.uniform(-35, 35)), "pitch_deg": float(rng.uniform(-25, 25)),
+               "tilt_deg": float(rng.uniform(-20, 20)) if kind != "slanted-edge" else float(rng.uniform(3, 8))}
+        if kind == "mesh":
+            obj["mesh"] = str(rng.choice(spec.meshes))
+        if kind in ("mesh", "white-disk", "black-disk"):
+            j = int(rng.integers(len(labels)))
+            obj["reflectance"] = {"library": spec.reflectances, "index": j, "label": labels[j]}
+            if kind == "black-disk":
+                obj["reflectance"]["scale"] = 0.1
+        objects.append(obj)
+    rec["objects"] = objects
+    if rng.random() < spec.bottom_probability:
+        rec["bottom_altitude_m"] = _uniform(rng, spec.bottom_altitude_m)
+    rec["render_seed"] = int(rng.integers(0, 2**31 - 1))
+    rec["noise_seed"] = int(rng.integers(0, 2**31 - 1))
+    return rec
+
+
+def _water(rec: dict):
+    from rigsim.water import ConstituentWater, preset
+
+    w = rec["water"]
+    if "preset" in w:
+        return preset(w["preset"])
+    if w.get("vacuum"):
+        from rigsim.water.model import Spectrum1D, TabulatedWater
+        from rigsim.water.phase import HenyeyGreenstein
+
+        return TabulatedWater("vacuum", Spectrum1D.constant(0.0), Spectrum1D.constant(0.0), HenyeyGreenstein(0.0),
+                              source="a = b = 0 (consistency checks)")
+    return ConstituentWater(name="drawn", **{k: v for k, v in w.items()})
+
+
+def build_sample_scene(spec: DatasetSpec, rec: dict):
+    """The Scene of a drawn sample."""
+    from rigsim.config.rig import load_rig
+    from rigsim.render.camera import fov_water_deg
+    from rigsim.scene.types import Scene, Target
+
+    rig = load_rig(rec["rig"])
+    pf = rec["power_fraction"]
+    lights = tuple(dataclasses.replace(l, axial_intensity=tuple(float(x) * pf for x in l.axial_intensity))
+                   for l in rig.lights)
+    rig = dataclasses.replace(rig, lights=lights)
+    water = _water(rec)
+    cam = rig.camera
+    half_x = math.tan(math.radians(fov_water_deg(cam)) / 2)
+    half_y = half_x * cam.sensor_height_mm / cam.sensor_width_mm
+    wl_lib, lib, _ = reflectance_library(spec.reflectances)
+    targets = []
+    for o in rec["objects"]:
+        d = o["distance_m"]
+        refl_wl, refl = (), ()
+        if "reflectance" in o:
+            r = lib[o["reflectance"]["index"]] * o["reflectance"].get("scale", 1.0)
+            refl_wl, refl = tuple(wl_lib.tolist()), tuple(np.clip(r, 0, 1).tolist())
+        kind = o["kind"]
+        targets.append(Target(
+            kind=kind, distance_m=d, size_m=o["size_fraction"] * 2 * d * half_x,
+            mesh_path=o.get("mesh"), reflectance_wavelength_nm=refl_wl, reflectance=refl, tilt_deg=o["tilt_deg"],
+            offset_m=(o["offset_frac"][0] * d * half_x, o["offset_frac"][1] * d * half_y),
+            yaw_deg=o["yaw_deg"], pitch_deg=o["pitch_deg"]))
+    if "bottom_altitude_m" in rec:
+        targets.append(Target(kind="bottom", distance_m=rec["bottom_altitude_m"], size_m=200.0))
+    return Scene(rig=rig, water=water, targets=tuple(targets)), water
+
+
+def _noise_free_linear(si, sensor, exposure, gains, ccm, layer=None) -> np.ndarray:
+    """Linear sRGB of a (ground-truth) spectral layer through the sensor, without noise or mosaic:
+    the same normalisation, white-balance gains and colour matrix as the developed image."""
+    from rigsim.sensor.pipeline import mean_electrons_rgb
+    from rigsim.spectral_image import SpectralImage
+
+    if layer is not None:
+        cont = si.layers.get(layer, np.zeros_like(si.radiance))
+        fl = si.layers.get(f"flash_{layer}")
+        si = SpectralImage(cont, si.wavelength_nm, si.bandwidth_nm, {} if fl is None else {"flash": fl}, si.meta)
+    e = mean_electrons_rgb(si, sensor, exposure).astype(np.float64)
+    k = sensor.iso_setting(exposure.iso).gain_dn_per_e
+    norm = e * k / (sensor.white_level_dn - sensor.black_level_dn) * np.asarray(gains, float)
+    return norm @ np.asarray(ccm, float).T
+
+
+def channel_attenuation(water, sensor, wavelength_nm, bandwidth_nm) -> np.ndarray:
+    """Effective c (1/m) per camera channel: c(λ) averaged with the channel's QE × Δλ as weights."""
+    qe = sensor.qe_at(wavelength_nm) * np.asarray(bandwidth_nm, float)[:, None]
+    w = qe / qe.sum(axis=0, keepdims=True)
+    c = water.c_per_m(np.asarray(wavelength_nm, float))
+    return c @ w
+
+
+def compute_sample(args: tuple[DatasetSpec, int, int, dict | None]) -> dict:
+    """Render and capture sample ``index``; returns arrays and the record (see the writer)."""
+    spec, index, seed, override = args
+    import time
+
+    from rigsim.render import render
+    from rigsim.sensor import load_sensor
+    from rigsim.sensor.noise import NoiseSwitches
+    from rigsim.sensor.optics import Lens
+    from rigsim.sensor.pipeline import DevelopOptions, auto_exposure, capture
+    from rigsim.sensor.white_balance import white_balance_gains
+
+    t0 = time.perf_counter()
+    rec = draw_sample(spec, index, seed)
+    if override:
+        rec.update(override)
+    scene, water = build_sample_scene(spec, rec)
+    si = render(scene, width=spec.width, height=spec.height, spp=spec.spp, seed=rec["render_seed"],
+                wavelengths_nm=spec.wavelengths_nm, layers=("range_m", "object_id", "clear", "backscatter"))
+    sensor = load_sensor(rec["sensor"])
+    lens = Lens(f_number=scene.camera.f_number)
+    exposure = auto_exposure(si, sensor, lens=lens)
+    # one development for both images: white balance fixed from the clean (no-water) view
+    from rigsim.spectral_image import SpectralImage
+
+    clean_cont = si.layers.get("clear", np.zeros_like(si.radiance))
+    clean_flash = si.layers.get("flash_clear")
+    clean_si = SpectralImage(clean_cont, si.wavelength_nm, si.bandwidth_nm,
+                             {} if clean_flash is None else {"flash": clean_flash}, {**si.meta, "water": None})
+    clean_raw = capture(clean_si, sensor, exposure, seed=rec["noise_seed"], noise=NoiseSwitches.off(), develop=None)
+    gains = white_balance_gains(clean_raw.half_rgb(), "grayworld")
+    opts = DevelopOptions(white_balance="manual", wb_kwargs={"gains": gains.tolist()})
+    noise = NoiseSwitches() if spec.noise else NoiseSwitches.off()
+    under = capture(si, sensor, exposure, seed=rec["noise_seed"], noise=noise, develop=opts)
+    clean = capture(clean_si, sensor, exposure, seed=rec["noise_seed"], noise=NoiseSwitches.off(), develop=opts)
+    rng_m = np.asarray(si.layers["range_m"], np.float32)
+    c_ch = channel_attenuation(water, sensor, si.wavelength_nm, si.bandwidth_nm)
+    finite = np.isfinite(rng_m)
+    trans = np.where(finite[..., None], np.exp(-np.where(finite, rng_m, 0)[..., None] * c_ch), 0.0).astype(np.float32)
+    backscatter = _noise_free_linear(si, sensor, exposure, gains, under.ccm, layer="backscatter").astype(np.float32)
+    legend = si.meta.get("object_ids", {})
+    rec.update({
+        "water_description": water.describe(), "c_550_per_m": float(water.c_per_m(550.0)),
+        "channel_attenuation_per_m": [float(x) for x in c_ch],
+        "exposure": exposure.describe(), "wb_gains": [float(g) for g in gains],
+        "ccm": np.asarray(under.ccm).tolist(), "object_ids": legend,
+        "render": {"width": spec.width, "height": spec.height, "spp": spec.spp,
+                   "wavelengths_nm": list(spec.wavelengths_nm), "variant": si.meta.get("variant"),
+                   "wall_time_s": si.meta.get("wall_time_s")},
+    })
+    rec["wall_time_s"] = time.perf_counter() - t0
+    return {"record": rec, "image_srgb": under.srgb, "image_linear": np.asarray(under.linear_rgb, np.float32),
+            "clean_srgb": clean.srgb, "clean_linear": np.asarray(clean.linear_rgb, np.float32),
+            "range_m": rng_m, "transmission": trans, "backscatter_linear": backscatter,
+            "object_id": np.asarray(si.layers["object_id"], np.uint16), "capture": under}
