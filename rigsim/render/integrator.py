@@ -1,0 +1,421 @@
+"""``rigsim_vol``: a volumetric path tracer for strobe-lit water (equiangular sampling + MIS).
+
+Why
+---
+With point lights (strobes, video lights) *inside* scattering water, most of the
+image is light scattered once near the lights.  Mitsuba's stock ``volpath``
+samples scattering distances by transmittance only and connects each scattering
+vertex to one light chosen at random, so
+
+* a vertex that lands close to a strobe gets the light's ``1/r²`` unchecked: the
+  fireflies that dominate strobe-lit renders (a pixel ~1000× its neighbours);
+* its shadow-ray transmittance is a 0/1 track-length estimate, and in a medium
+  whose extinction varies with wavelength the distance is drawn for the first
+  (hero) wavelength only, so the other wavelengths get unbounded weights
+  ``T_i/(σ_t,0 T_0)``.
+
+This integrator removes all three.
+
+Estimator
+---------
+Each path carries the renderer's four wavelengths.  Along every ray segment
+``x(t) = o + t d``, ``0 ≤ t < t_s`` (``t_s``: next surface, or the water's
+boundary) the radiance is
+
+    L = ∫₀^{t_s} T(t) σ_s [L_dir(x(t)) + L_ind(x(t))] dt + T(t_s) L_surface,
+
+``T(t) = exp(−σ_t t)`` per wavelength.  ``L_dir`` is the light of the point lights
+(``Σ_k p(ψ_k) T(r_k) V_k I_k(ω)/r_k²``; delta lights, reachable only by next-event
+estimation), ``L_ind`` everything else.
+
+* **Distance sampling with spectral MIS** (one sample per segment): a wavelength
+  ``j`` of the path is picked uniformly and ``t ~ σ_t,j exp(−σ_t,j t)``; the density
+  actually used is the average over the path's wavelengths,
+  ``p_d(t) = ¼ Σ_i σ_t,i T_i(t)`` (probability ``P_s = ¼ Σ_i T_i(t_s)`` of reaching
+  the surface), so every wavelength's weight ``σ_s,i T_i / p_d ≤ 4 albedo_i`` stays
+  bounded (the "hero" single-wavelength pdf of ``volpath`` does not).  The sampled
+  vertex continues the path (phase-function sampling) and estimates ``L_ind``.
+* **Equiangular sampling** (Kulla & Fajardo 2012) toward *each* point light ``k`` on
+  *every* segment (camera rays and scattered rays): with ``Δ = (p_k − o)·d`` and
+  ``D`` the distance of the light from the ray line,
+  ``t = Δ + D tan(θ_a + ξ (θ_b − θ_a))``, ``θ_a = atan(−Δ/D)``,
+  ``θ_b = atan((t_e − Δ)/D)``, density ``p_e(t) = D / ((θ_b − θ_a)(D² + (t − Δ)²))``
+  on ``[0, t_e]``, ``t_e = min(t_s, t_cap)`` (``t_cap = 30/min_i σ_t,i``: beyond it all
+  wavelengths' transmittance is < 1e-13 and the distance technique alone covers it).
+  As ``D² + (t − Δ)² = r²``, ``σ_s T I/r² / p_e ∝ 1/D``: the ``1/r²`` singularity
+  is gone.
+* **MIS**: ``L_dir`` of light ``k`` on the segment is estimated by both techniques
+  (the distance sample and the equiangular sample, each connected to the light by
+  an analytic, exact transmittance ``exp(−σ_t r)`` and a shadow ray) and combined
+  with the power heuristic (Veach's multi-sample MIS, ``β = 2``; ``mis="balance"``
+  for ``β = 1``).  The weights are the same for all wavelengths (they need only sum
+  to one), so the estimator is unbiased per wavelength.
+* **Surfaces** (opaque BSDFs, here rigsim's two-sided diffuse targets): next-event
+  estimation to every light with the analytic transmittance, then BSDF sampling,
+  as in ``volpath`` (point lights are delta: no MIS with BSDF sampling needed).
+* **Russian roulette** as ``volpath``: from ``rr_depth`` on, survive with
+  ``q = min(max_i β_i, 0.95)``.  ``max_depth`` counts vertices as ``volpath`` does
+  (1: nothing, since lights cannot be seen; 2: single scattering / direct light).
+
+Every light is connected at every vertex (no random light choice): rigsim passes
+hold one to a few lights.
+
+Scenes it accepts (checked, :class:`~rigsim.errors.ConfigError` otherwise)
+----------------------------------------------------------------------------
+rigsim's render scenes: at most one ``homogeneous`` medium, which surrounds the
+camera and every light and surface (the water sphere of
+:mod:`rigsim.render.mitsuba_scene`, a shape with a ``null`` BSDF whose interior is
+the medium); every other shape is opaque (no ``null`` BSDF, no interior medium,
+no area light); every emitter is a point-like delta light (``DeltaPosition``,
+e.g. :class:`~rigsim.render.emitter_plugin.BeamPointEmitter`).  A path that reaches
+the ``null`` boundary has left the water and ends (there is nothing outside).
+Without a medium (the ``clear`` pass) it is a plain path tracer with
+next-event estimation.
+
+References
+----------
+Kulla, C. & Fajardo, M. (2012). Importance sampling techniques for path tracing
+in participating media. *Computer Graphics Forum* 31(4), 1519–1528 (EGSR).
+
+Veach, E. & Guibas, L. J. (1995). Optimally combining sampling techniques for
+Monte Carlo rendering. *SIGGRAPH '95*, 419–428.
+
+Examples
+--------
+>>> from rigsim.render.integrator import PLUGIN_NAME
+>>> PLUGIN_NAME
+'rigsim_vol'
+
+In a scene dict: ``"integrator": {"type": "rigsim_vol", "max_depth": -1, "rr_depth": 5}``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+from rigsim.errors import ConfigError
+from rigsim.render.variant import mitsuba
+
+__all__ = ["RigsimVolIntegrator", "PLUGIN_NAME", "INTEGRATORS", "integrator_dict", "with_integrator",
+           "equiangular_sample", "equiangular_pdf", "T_CAP_OPTICAL_DEPTH"]
+
+mi, dr = mitsuba()
+
+#: Name under which the integrator is registered with Mitsuba.
+PLUGIN_NAME = "rigsim_vol"
+#: Integrators ``rigsim render --integrator`` can choose: name → Mitsuba plugin.
+INTEGRATORS = {"rigsim": PLUGIN_NAME, "volpath": "volpath"}
+#: Equiangular samples stop at this optical depth of the least attenuated wavelength.
+T_CAP_OPTICAL_DEPTH = 30.0
+#: Smallest distance of a light from a ray line used by equiangular sampling (m).
+_D_MIN = 1e-6
+
+
+def integrator_dict(name: str = "rigsim", *, max_depth: int = -1, rr_depth: int = 5) -> dict:
+    """Mitsuba dict of integrator ``name`` (a key of :data:`INTEGRATORS`)."""
+    if name not in INTEGRATORS:
+        raise ConfigError(f"unknown integrator {name!r}", field="integrator", allowed=", ".join(INTEGRATORS))
+    return {"type": INTEGRATORS[name], "max_depth": int(max_depth), "rr_depth": int(rr_depth)}
+
+
+def with_integrator(ms, integrator):
+    """The same loaded scene with another integrator (a :class:`MitsubaScene` copy).
+
+    ``integrator`` is a Mitsuba dict, a name of :data:`INTEGRATORS` or an integrator
+    object.  The shapes and emitters (with their BSDFs and media) are reused, not
+    rebuilt; shape ids are kept.
+    """
+    if isinstance(integrator, str):
+        integrator = integrator_dict(integrator)
+    d = {"type": "scene", "integrator": integrator}
+    for i, sh in enumerate(ms.scene.shapes()):
+        d[sh.id() or f"shape{i}"] = sh
+    for i, e in enumerate(ms.scene.emitters()):
+        d[f"emitter{i}"] = e
+    return dataclasses.replace(ms, scene=mi.load_dict(d))
+
+
+# ---------------------------------------------------------------------------------------
+# Equiangular sampling (Kulla & Fajardo 2012)
+# ---------------------------------------------------------------------------------------
+def _equiangular_frame(o, d, p_light, t_max):
+    delta = dr.dot(p_light - o, d)
+    D = dr.maximum(dr.norm(p_light - (o + d * delta)), _D_MIN)
+    th_a = dr.atan2(-delta, D)
+    th_b = dr.atan2(t_max - delta, D)
+    return delta, D, th_a, th_b
+
+
+def equiangular_sample(o, d, p_light, t_max, u):
+    """Distance ``t ∈ [0, t_max]`` along ``o + t d`` with density ∝ 1/(distance to the light)².
+
+    Parameters
+    ----------
+    o, d
+        Ray origin and unit direction.
+    p_light
+        Light position.
+    t_max
+        End of the segment (finite, ≥ 0).
+    u
+        Uniform number in [0, 1).
+
+    Returns
+    -------
+    (t, pdf)
+        The distance (m) and its density (1/m), ``D / ((θ_b − θ_a)(D² + (t − Δ)²))``.
+    """
+    delta, D, th_a, th_b = _equiangular_frame(o, d, p_light, t_max)
+    dth = th_b - th_a
+    th = dr.fma(u, dth, th_a)
+    s, c = dr.sincos(th)
+    t = dr.clip(delta + D * s / c, 0.0, t_max)
+    # D² + (t − Δ)² = D²/cos² θ
+    pdf = dr.select(dth > 0, c * c / (D * dth), 0.0)
+    return t, pdf
+
+
+def equiangular_pdf(o, d, p_light, t_max, t):
+    """Density of :func:`equiangular_sample` at ``t`` (0 outside [0, t_max])."""
+    delta, D, th_a, th_b = _equiangular_frame(o, d, p_light, t_max)
+    dth = th_b - th_a
+    x = t - delta
+    pdf = D / (dth * (D * D + x * x))
+    return dr.select((dth > 0) & (t >= 0) & (t <= t_max), pdf, 0.0)
+
+
+# ---------------------------------------------------------------------------------------
+# The integrator
+# ---------------------------------------------------------------------------------------
+def _mean4(s):
+    return (s[0] + s[1] + s[2] + s[3]) * 0.25
+
+
+def _channel(s, j):
+    return dr.select(j == 0, s[0], dr.select(j == 1, s[1], dr.select(j == 2, s[2], s[3])))
+
+
+class RigsimVolIntegrator(mi.SamplingIntegrator):
+    """Volumetric path tracer with equiangular light sampling (see the module docstring).
+
+    Mitsuba properties: ``max_depth`` (int, −1: unlimited), ``rr_depth`` (int, 5),
+    ``mis`` (``"power"`` or ``"balance"``), ``equiangular`` (bool, True; False leaves
+    distance sampling alone — for comparisons).
+    """
+
+    def __init__(self, props=None):
+        if props is None:
+            props = mi.Properties(PLUGIN_NAME)
+        mi.SamplingIntegrator.__init__(self, props)
+        md = int(props.get("max_depth", -1))
+        if md < -1 or md == 0:
+            raise ConfigError(f"max_depth must be -1 or >= 1, got {md}", field="integrator.max_depth")
+        self.max_depth = md
+        self.rr_depth = int(props.get("rr_depth", 5))
+        if self.rr_depth < 1:
+            raise ConfigError(f"rr_depth must be >= 1, got {self.rr_depth}", field="integrator.rr_depth")
+        self.mis = str(props.get("mis", "power"))
+        if self.mis not in ("power", "balance"):
+            raise ConfigError(f"mis must be power or balance, got {self.mis!r}", field="integrator.mis")
+        self.equiangular = bool(props.get("equiangular", True))
+        self._checked: dict[int, tuple] = {}
+
+    # -- scene checks -----------------------------------------------------------------
+    def _scene_info(self, scene, medium):
+        """(emitters, light positions) after checking the scene is one this integrator handles."""
+        key = id(scene)
+        hit = self._checked.get(key)
+        if hit is not None and hit[0] is scene:
+            return hit[1]
+        emitters = list(scene.emitters())
+        for e in emitters:
+            if not mi.has_flag(e.flags(), mi.EmitterFlags.DeltaPosition):
+                raise ConfigError(f"{PLUGIN_NAME} handles point lights only, got {type(e).__name__}",
+                                  field="integrator", allowed="volpath for other lights")
+        if scene.environment() is not None:
+            raise ConfigError(f"{PLUGIN_NAME} does not handle environment lights", field="integrator")
+        n_null = 0
+        for sh in scene.shapes():
+            if sh.is_emitter():
+                raise ConfigError(f"{PLUGIN_NAME} does not handle area lights ({sh.id()})", field="integrator")
+            null = mi.has_flag(sh.bsdf().flags(), mi.BSDFFlags.Null)
+            if null:
+                n_null += 1
+                if medium is None or sh.interior_medium() is None:
+                    raise ConfigError(f"{PLUGIN_NAME}: null-BSDF shape {sh.id()!r} is not the water boundary",
+                                      field="integrator")
+            elif sh.interior_medium() is not None:
+                raise ConfigError(f"{PLUGIN_NAME}: shape {sh.id()!r} has an interior medium (only the water "
+                                  "boundary may)", field="integrator")
+        if n_null > 1:
+            raise ConfigError(f"{PLUGIN_NAME} handles one medium boundary, found {n_null}", field="integrator")
+        if medium is not None and not medium.is_homogeneous():
+            raise ConfigError(f"{PLUGIN_NAME} handles homogeneous media only", field="integrator")
+        info = (emitters,)
+        if len(self._checked) > 32:
+            self._checked.clear()
+        self._checked[key] = (scene, info)
+        return info
+
+    # -- MIS ----------------------------------------------------------------------------
+    def mis_weight(self, pdf_a, pdf_b):
+        """Weight of technique a against b (power heuristic, β = 2, or balance)."""
+        if self.mis == "power":
+            a2, b2 = pdf_a * pdf_a, pdf_b * pdf_b
+            w = a2 / (a2 + b2)
+        else:
+            w = pdf_a / (pdf_a + pdf_b)
+        return dr.select(dr.isfinite(w), w, 0.0)
+
+    # -- helpers ------------------------------------------------------------------------
+    @staticmethod
+    def _medium_interaction(p, d, t, wavelengths, time, medium_ptr):
+        mei = dr.zeros(mi.MediumInteraction3f)
+        mei.p = p
+        mei.t = t
+        mei.wi = -d
+        mei.sh_frame = mi.Frame3f(mei.wi)
+        mei.wavelengths = wavelengths
+        mei.time = time
+        mei.medium = medium_ptr
+        return mei
+
+    @staticmethod
+    def _light(scene, it, emitter, sigma_t, active):
+        """Unoccluded, attenuated light of ``emitter`` at interaction ``it``: (value, direction sample)."""
+        ds, val = emitter.sample_direction(it, mi.Point2f(0.5), active)
+        if sigma_t is not None:
+            val = val * dr.exp(-sigma_t * ds.dist)
+        occluded = scene.ray_test(it.spawn_ray_to(ds.p), active)
+        return dr.select(active & ~occluded, val, 0.0), ds
+
+    # -- Mitsuba interface ----------------------------------------------------------------
+    def sample(self, scene, sampler, ray, medium=None, active=True):
+        (emitters,) = self._scene_info(scene, medium)
+        ray = mi.Ray3f(ray)
+        active = mi.Bool(active)
+        wavelengths = ray.wavelengths
+        time = ray.time
+        max_depth = self.max_depth if self.max_depth >= 0 else 2**31
+        has_medium = medium is not None
+        eq = self.equiangular and has_medium
+
+        if has_medium:
+            medium_ptr = mi.MediumPtr(medium)
+            mei0 = self._medium_interaction(ray.o, ray.d, mi.Float(0.0), wavelengths, time, medium_ptr)
+            sigma_s, _, sigma_t = medium.get_scattering_coefficients(mei0, active)
+            sigma_t = mi.Spectrum(sigma_t)
+            sigma_s = mi.Spectrum(sigma_s)
+            sig_min = dr.minimum(dr.minimum(sigma_t[0], sigma_t[1]), dr.minimum(sigma_t[2], sigma_t[3]))
+            t_cap = T_CAP_OPTICAL_DEPTH / dr.maximum(sig_min, 1e-30)
+            phase = medium.phase_function()
+            scatters = dr.any(sigma_s > 0.0)
+        else:
+            sigma_t = None
+        light_pos = [e.sample_position(time, mi.Point2f(0.5), active)[0].p for e in emitters]
+        bsdf_ctx = mi.BSDFContext()
+
+        def cond(sampler, active, depth, o, d, beta, L):
+            return active
+
+        def body(sampler, active, depth, o, d, beta, L):
+            # ---- termination: depth limit, zero throughput, Russian roulette
+            active &= (depth + 1 < max_depth) & dr.any(beta != 0.0)
+            q = dr.minimum(dr.max(beta), 0.95)
+            rr = depth > self.rr_depth
+            active &= (sampler.next_1d(active) < q) | ~rr
+            beta = dr.select(rr & active, beta / q, beta)
+
+            r = mi.Ray3f(o, d, time, wavelengths)
+            si = scene.ray_intersect(r, active)
+            t_s = dr.select(si.is_valid(), si.t, dr.inf)
+            surf = active & si.is_valid()
+            o_next, d_next = mi.Point3f(o), mi.Vector3f(d)
+            cont = mi.Bool(False)
+
+            if has_medium:
+                # ---- distance sampling, spectral MIS over the path's wavelengths
+                u_ch = sampler.next_1d(active)
+                u_t = sampler.next_1d(active)
+                j = mi.UInt32(dr.minimum(u_ch * 4.0, 3.0))
+                t_d = -dr.log(1.0 - u_t) / _channel(sigma_t, j)
+                med = active & (t_d < t_s) & scatters
+                T_d = dr.exp(-sigma_t * t_d)
+                pdf_d = _mean4(sigma_t * T_d)
+                T_s = dr.exp(-sigma_t * t_s)
+                P_s = _mean4(T_s)
+                # albedo 0 (the ``direct`` pass): every path goes on to the surface, weight T
+                surf &= (t_d >= t_s) | ~scatters
+                beta_surf = dr.select(scatters, dr.select(P_s > 0, T_s / P_s, 0.0), T_s)
+                w_med = dr.select(pdf_d > 0, T_d * sigma_s / pdf_d, 0.0)
+                x_d = o + d * t_d
+                mei_d = self._medium_interaction(x_d, d, t_d, wavelengths, time, medium_ptr)
+                ctx = mi.PhaseFunctionContext(sampler)
+                t_e_max = dr.minimum(t_s, t_cap)
+
+                for k, em in enumerate(emitters):
+                    # (1) the distance sample connected to light k
+                    val, ds = self._light(scene, mei_d, em, sigma_t, med)
+                    ph_val, _ = phase.eval_pdf(ctx, mei_d, ds.d, med)
+                    if eq:
+                        w = self.mis_weight(pdf_d, equiangular_pdf(o, d, light_pos[k], t_e_max, t_d))
+                    else:
+                        w = 1.0
+                    L += dr.select(med, beta * w_med * ph_val * val * w, 0.0)
+                    if eq:
+                        # (2) an equiangular sample toward light k
+                        t_e, pdf_e = equiangular_sample(o, d, light_pos[k], t_e_max, sampler.next_1d(active))
+                        ok = active & scatters & (pdf_e > 0) & (t_e < t_s)
+                        x_e = o + d * t_e
+                        mei_e = self._medium_interaction(x_e, d, t_e, wavelengths, time, medium_ptr)
+                        val_e, ds_e = self._light(scene, mei_e, em, sigma_t, ok)
+                        ph_e, _ = phase.eval_pdf(ctx, mei_e, ds_e.d, ok)
+                        T_e = dr.exp(-sigma_t * t_e)
+                        pdf_d_e = _mean4(sigma_t * T_e)
+                        w_e = self.mis_weight(pdf_e, pdf_d_e)
+                        L += dr.select(ok, beta * (T_e * sigma_s / pdf_e) * ph_e * val_e * w_e, 0.0)
+
+                # ---- continue from the distance sample: phase sampling
+                wo, ph_w, ph_pdf = phase.sample(ctx, mei_d, sampler.next_1d(med), sampler.next_2d(med), med)
+                med &= ph_pdf > 0
+                beta = dr.select(med, beta * w_med * ph_w, beta)
+                o_next = dr.select(med, x_d, o_next)
+                d_next = dr.select(med, wo, d_next)
+                cont |= med
+                beta = dr.select(surf, beta * beta_surf, beta)
+
+            # ---- surfaces: the water boundary ends the path; opaque surfaces: NEE + BSDF sampling
+            bsdf = si.bsdf(r)
+            surf &= ~mi.has_flag(bsdf.flags(), mi.BSDFFlags.Null)
+            for em in emitters:
+                val, ds = self._light(scene, si, em, sigma_t, surf)
+                f = bsdf.eval(bsdf_ctx, si, si.to_local(ds.d), surf)
+                L += dr.select(surf, beta * f * val, 0.0)
+            bs, bw = bsdf.sample(bsdf_ctx, si, sampler.next_1d(surf), sampler.next_2d(surf), surf)
+            surf &= bs.pdf > 0
+            beta = dr.select(surf, beta * bw, beta)
+            r_s = si.spawn_ray(si.to_world(bs.wo))
+            o_next = dr.select(surf, r_s.o, o_next)
+            d_next = dr.select(surf, r_s.d, d_next)
+            cont |= surf
+
+            depth = dr.select(cont, depth + 1, depth)
+            active &= cont
+            return sampler, active, depth, o_next, d_next, beta, L
+
+        state = (sampler, active, mi.UInt32(0), mi.Point3f(ray.o), mi.Vector3f(ray.d),
+                 mi.Spectrum(1.0), mi.Spectrum(0.0))
+        state = dr.while_loop(state, cond, body, labels=("sampler", "active", "depth", "o", "d", "beta", "L"),
+                              label="rigsim_vol")
+        L = state[-1]
+        return L, mi.Bool(True), []
+
+    def aov_names(self):
+        return []
+
+    def to_string(self):
+        return (f"RigsimVolIntegrator[max_depth={self.max_depth}, rr_depth={self.rr_depth}, mis={self.mis}, "
+                f"equiangular={self.equiangular}]")
+
+
+mi.register_integrator(PLUGIN_NAME, lambda props: RigsimVolIntegrator(props))
