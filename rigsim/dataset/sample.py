@@ -183,13 +183,15 @@ def compute_sample(args: tuple[DatasetSpec, int, int, dict | None]) -> dict:
     sensor = load_sensor(rec["sensor"])
     lens = Lens(f_number=scene.camera.f_number)
     exposure = auto_exposure(si, sensor, lens=lens)
-    # one development for both images: white balance fixed from the clean (no-water) view
+    # The clean image: same view, lighting, housing (port, water index) and sensor with the water's
+    # absorption and scattering removed.  One development for both images: white balance fixed
+    # from the clean view.
     from rigsim.spectral_image import SpectralImage
 
     clean_cont = si.layers.get("clear", np.zeros_like(si.radiance))
     clean_flash = si.layers.get("flash_clear")
     clean_si = SpectralImage(clean_cont, si.wavelength_nm, si.bandwidth_nm,
-                             {} if clean_flash is None else {"flash": clean_flash}, {**si.meta, "water": None})
+                             {} if clean_flash is None else {"flash": clean_flash}, si.meta)
     clean_raw = capture(clean_si, sensor, exposure, seed=rec["noise_seed"], noise=NoiseSwitches.off(), develop=None)
     gains = white_balance_gains(clean_raw.half_rgb(), "grayworld")
     opts = DevelopOptions(white_balance="manual", wb_kwargs={"gains": gains.tolist()})

@@ -8,8 +8,9 @@ Layout of ``DIR``::
         image.png                     the underwater image as the camera records it (8-bit sRGB)
         raw.dng                       its raw mosaic (LibRaw/rawpy reads it)
         image_linear.tiff             float32 scene-linear sRGB of image.png (white level = 1)
-        clean.png, clean_linear.tiff  the same view and lighting without water, same sensor, same
-                                      exposure and white balance, no sensor noise
+        clean.png, clean_linear.tiff  the same view, lighting and housing with the water's absorption
+                                      and scattering removed; same sensor, exposure and white balance;
+                                      no sensor noise
         range_m.tiff                  float32 distance from the entrance pupil to the first surface, m
                                       (inf where the ray meets no surface)
         transmission.tiff             float32 (rows, cols, 3) exp(−c_ch · range) per camera channel,

@@ -141,7 +141,7 @@ def build_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: 
         if np.any(np.asarray(light.axial_intensity, float) > 0):
             d[f"light{i}"] = make_emitter(light)
     try:
-        loaded = mi.load_dict(d)
+        loaded = mi.load_dict(d, optimize=False)  # keep one shape per target piece (object ids)
     except ConfigError:
         raise
     except Exception as e:  # noqa: BLE001 - turn Mitsuba's parser errors into one line

@@ -247,7 +247,7 @@ def _geometry_layers(ms: MitsubaScene, scene: Scene, width: int, height: int) ->
     col = mi.Float(idx % width) + 0.5
     o, d = generate_rays(scene.camera, col / width, row / height, width, height)
     si = ms.scene.ray_intersect(mi.Ray3f(o, d))
-    oid = mi.Int32(0)
+    oid = dr.zeros(mi.Int32, n)
     for sh in ms.scene.shapes():
         k = ms.shape_ids.get(sh.id())
         if k is not None:

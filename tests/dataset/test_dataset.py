@@ -1,0 +1,138 @@
+"""Datasets: consistent ground truth, determinism across workers, errors before rendering."""
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import tifffile
+
+from rigsim.dataset import load_dataset_spec, run_dataset
+from rigsim.errors import ConfigError
+
+ROOT = Path(__file__).resolve().parents[2]
+
+SPEC = """
+[dataset]
+width = 36
+height = 24
+spp = 16
+
+[water]
+presets = ["coastal", "jerlov-II"]
+constituent_probability = 0.5
+
+[rig]
+files = ["{root}/rigs/twin-strobes-45-wide.toml", "{root}/rigs/single-strobe-short-arm.toml"]
+power_fraction = [0.5, 1.0]
+
+[sensor]
+names = ["sony_ilce-7rm2", "action_cam_1-2.3in"]
+noise = {noise}
+
+[scene]
+distance_m = [1.0, 2.0]
+objects = [1, 2]
+kinds = ["colorchecker", "white-disk", "mesh"]
+size_fraction = [0.3, 0.5]
+bottom_probability = 0.5
+"""
+
+
+def spec_file(tmp_path, noise="true", **replace):
+    text = SPEC.format(root=ROOT, noise=noise)
+    for old, new in replace.items():
+        text = text.replace(old, new)
+    p = tmp_path / "spec.toml"
+    p.write_text(text)
+    return p
+
+
+def read(d, name):
+    return tifffile.imread(d / name)
+
+
+@pytest.mark.render
+def test_four_samples_layers_consistent(tmp_path):
+    spec = load_dataset_spec(spec_file(tmp_path, noise="false"))
+    out = run_dataset(spec, 4, tmp_path / "ds", seed=5, serial=True, progress=False,
+                      overrides={0: {"water": {"vacuum": True}}})
+    manifest = (out / "manifest.csv").read_text().splitlines()
+    assert len(manifest) == 5
+    from rigsim.dataset.sample import channel_attenuation
+    from rigsim.sensor import load_sensor
+
+    for i in range(4):
+        d = out / "samples" / f"{i:06d}"
+        for f in ("image.png", "raw.dng", "clean.png", "range_m.tiff", "transmission.tiff",
+                  "backscatter_linear.tiff", "mask.png", "record.json", "image_linear.tiff", "clean_linear.tiff"):
+            assert (d / f).is_file(), f
+        rec = json.loads((d / "record.json").read_text())
+        rng_m, trans = read(d, "range_m.tiff"), read(d, "transmission.tiff")
+        c = np.array(rec["channel_attenuation_per_m"])
+        fin = np.isfinite(rng_m)
+        # transmission is exp(-c_channel * range) with the water's c weighted by the channel QE
+        np.testing.assert_allclose(trans[fin], np.exp(-rng_m[fin][:, None] * c), rtol=1e-5)
+        assert np.all(trans[~fin] == 0)
+        if i > 0:
+            from rigsim.dataset.sample import _water
+
+            w = _water(rec)
+            wl = np.arange(400.0, 701.0, 10.0)
+            np.testing.assert_allclose(c, channel_attenuation(w, load_sensor(rec["sensor"]), wl, np.full(31, 10.0)),
+                                       rtol=1e-9)
+            assert w.c_per_m(wl).min() <= c.min() and c.max() <= w.c_per_m(wl).max()
+        # objects are where the mask says, at finite range
+        import imageio.v3 as iio
+
+        mask = iio.imread(d / "mask.png")
+        assert mask.dtype == np.uint16 and mask.shape == rng_m.shape
+        assert np.all(np.isfinite(rng_m[mask > 0]))
+        assert set(np.unique(mask[mask > 0]).tolist()) <= {int(k) for k in rec["object_ids"]}
+    # vacuum: the underwater image is the clean image (no noise in this spec; Monte Carlo tolerance)
+    d0 = out / "samples" / "000000"
+    img, clean = read(d0, "image_linear.tiff"), read(d0, "clean_linear.tiff")
+    assert np.mean(img) == pytest.approx(np.mean(clean), rel=0.05)
+    assert np.all(np.abs(read(d0, "transmission.tiff")[np.isfinite(read(d0, "range_m.tiff"))] - 1) < 1e-6)
+    assert np.abs(read(d0, "backscatter_linear.tiff")).max() < 1e-6
+    # in real water the clean image is brighter than the underwater one at the objects
+    d1 = out / "samples" / "000001"
+    m1 = iio.imread(d1 / "mask.png") > 0
+    assert read(d1, "clean_linear.tiff")[m1].mean() > read(d1, "image_linear.tiff")[m1].mean() * 0.9
+
+
+@pytest.mark.render
+def test_deterministic_across_workers(tmp_path):
+    spec = load_dataset_spec(spec_file(tmp_path))
+    a = run_dataset(spec, 2, tmp_path / "serial", seed=11, serial=True, progress=False)
+    b = run_dataset(spec, 2, tmp_path / "dask", seed=11, progress=False)
+    for i in range(2):
+        ra = json.loads((a / "samples" / f"{i:06d}" / "record.json").read_text())
+        rb = json.loads((b / "samples" / f"{i:06d}" / "record.json").read_text())
+        for r in (ra, rb):
+            r.pop("wall_time_s")
+            r["render"].pop("wall_time_s")
+        assert ra == rb
+        for f in ("image.png", "mask.png", "range_m.tiff"):
+            assert (a / "samples" / f"{i:06d}" / f).read_bytes() == (b / "samples" / f"{i:06d}" / f).read_bytes()
+
+
+@pytest.mark.parametrize("old,new,pattern", [
+    ("distance_m = [1.0, 2.0]", "distance_m = [3.0, 1.0]", r"scene.distance_m: impossible range \[3, 1\]"),
+    ("distance_m = [1.0, 2.0]", "distance_m = [0.05, 1.0]", r"scene.distance_m: .*touch the port"),
+    ("objects = [1, 2]", "objects = [0, 2]", r"scene.objects: impossible range"),
+    ("[water]", "[water]\nchl_mg_per_m3 = [0.0, 1.0]", r"water.chl_mg_per_m3: impossible range"),
+    ("power_fraction = [0.5, 1.0]", "power_fraction = [0.5, 1.5]", r"rig.power_fraction: impossible range"),
+    ('presets = ["coastal", "jerlov-II"]', 'presets = ["coastl"]', r"water.presets\[0\].*did you mean 'coastal'"),
+    ('kinds = ["colorchecker", "white-disk", "mesh"]', 'kinds = ["cube"]', r"scene.kinds\[0\]: unknown object kind"),
+    ("spp = 16", "spp = 16\nfoo = 1", r"dataset.foo: unknown key"),
+])
+def test_bad_spec_fails_before_rendering(tmp_path, monkeypatch, old, new, pattern):
+    import rigsim.dataset.writer as writer
+
+    monkeypatch.setattr(writer, "_compute", lambda *a: pytest.fail("rendered despite a bad spec"))
+    p = spec_file(tmp_path)
+    p.write_text(p.read_text().replace(old, new))
+    with pytest.raises(ConfigError, match=pattern) as ei:
+        run_dataset(load_dataset_spec(p), 2, tmp_path / "x", serial=True, progress=False)
+    assert "\n" not in str(ei.value)
