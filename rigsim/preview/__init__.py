@@ -1,0 +1,15 @@
+"""Scene → SpectralImage in well under a second: the Jaffe–McGlamery model with spectral IOPs.
+
+* :func:`render_preview` — the preview (see :mod:`rigsim.preview.model` for the model,
+  its references and its limits); same inputs and outputs as :func:`rigsim.render.render`;
+* :mod:`rigsim.preview.forward` — small-angle forward scattering (blur kernels);
+* :mod:`rigsim.preview.backscatter` — the single-scattering integral along each ray;
+* :mod:`rigsim.preview.phase` — the phase function as weighted cell tables;
+* :mod:`rigsim.preview.geometry` — camera rays, ray casting, shadows (numpy, no Mitsuba).
+
+Importing this package does not load Mitsuba.
+"""
+
+from rigsim.preview.model import PREVIEW_LAYERS, RENDERER_NAME, band_edges, render_preview
+
+__all__ = ["render_preview", "PREVIEW_LAYERS", "RENDERER_NAME", "band_edges"]

@@ -1,0 +1,210 @@
+"""Geometry of the preview: camera rays, ray casting against target surfaces, shadow tests.
+
+Pure numpy, no Mitsuba.  The camera is the renderer's (:mod:`rigsim.render.camera`):
+a pinhole at the entrance pupil, image column → ``right = forward × up``, row → −up,
+film position ``(px, py)`` in [0, 1]; a dome port leaves directions unchanged and the
+ray enters the water on the outer dome surface (``radius + thickness`` from the
+pupil); a flat port refracts air → glass → water exactly.  The surfaces are those of
+:func:`rigsim.scene.targets.target_surfaces`, numbered 1… across all targets in scene
+order, as the renderer numbers them; they are two-sided Lambertian reflectors.
+
+Mesh targets are not supported by the preview (it has no triangle intersector).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rigsim.errors import ConfigError
+from rigsim.scene.targets import Surface, target_surfaces
+from rigsim.scene.types import Camera, Scene, unit
+
+__all__ = ["camera_frame", "camera_rays", "pixel_grid_rays", "SceneSurfaces", "scene_surfaces",
+           "cast_rays", "occluded", "angular_pitch_rad"]
+
+
+def camera_frame(camera: Camera) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(forward, right, up) as :func:`rigsim.render.camera.camera_frame`."""
+    f = unit(camera.forward)
+    u = np.asarray(camera.up, float)
+    u = u - f * np.dot(u, f)
+    if np.linalg.norm(u) < 1e-9:
+        raise ConfigError("camera up is parallel to its forward direction", field="camera.up")
+    u = u / np.linalg.norm(u)
+    return f, np.cross(f, u), u
+
+
+def camera_rays(camera: Camera, px, py, *, n_water: float) -> tuple[np.ndarray, np.ndarray]:
+    """In-water ray origins and unit directions for film positions ``px``, ``py`` in [0, 1].
+
+    The same formulas as :func:`rigsim.render.camera.generate_rays` (float64 here).
+
+    Returns
+    -------
+    (origin, direction)
+        Arrays of shape ``shape(px) + (3,)``.
+    """
+    f, r, u = camera_frame(camera)
+    tx = camera.sensor_width_mm / (2.0 * camera.focal_length_mm)
+    ty = camera.sensor_height_mm / (2.0 * camera.focal_length_mm)
+    x = (2.0 * np.asarray(px, float) - 1.0) * tx
+    y = (1.0 - 2.0 * np.asarray(py, float)) * ty
+    d_air = f + r * x[..., None] + u * y[..., None]
+    d_air /= np.linalg.norm(d_air, axis=-1, keepdims=True)
+    pupil = np.asarray(camera.position_m, float)
+    port = camera.port
+    if port.kind == "flat":
+        cos_a = d_air @ f
+        trans = d_air - f * cos_a[..., None]
+        sin2 = np.sum(trans * trans, axis=-1)
+        ng = float(port.glass_index)
+        cos_g = np.sqrt(np.maximum(1.0 - sin2 / (ng * ng), 0.0))
+        cos_w = np.sqrt(np.maximum(1.0 - sin2 / (n_water * n_water), 0.0))
+        d_glass = trans / ng + f * cos_g[..., None]
+        d_water = trans / n_water + f * cos_w[..., None]
+        p1 = pupil + d_air * (float(port.standoff_m) / cos_a)[..., None]
+        origin = p1 + d_glass * (float(port.thickness_m) / cos_g)[..., None]
+        return origin, d_water
+    if port.kind == "dome":
+        origin = pupil + d_air * float(port.radius_m + port.thickness_m)
+        return origin, d_air
+    raise ConfigError(f"unknown port kind {port.kind!r}", field="camera.port.kind", allowed="dome, flat")
+
+
+def pixel_grid_rays(camera: Camera, width: int, height: int, *, n_water: float,
+                    step: float = 1.0) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Rays through a grid of film points ``step`` pixels apart, covering the image.
+
+    Returns ``(origin, direction, col, row)``: (m, n, 3) arrays and the pixel
+    coordinates (centres at half-integers) of the grid's columns and rows.
+    """
+    if step == 1.0:
+        col = np.arange(width) + 0.5
+        row = np.arange(height) + 0.5
+    else:
+        col = np.linspace(0.0, width, max(2, int(np.ceil(width / step)) + 1))
+        row = np.linspace(0.0, height, max(2, int(np.ceil(height / step)) + 1))
+    PX, PY = np.meshgrid(col / width, row / height)
+    o, d = camera_rays(camera, PX, PY, n_water=n_water)
+    return o, d, col, row
+
+
+def angular_pitch_rad(camera: Camera, width: int, height: int, *, n_water: float) -> tuple[float, float]:
+    """In-water angle (rad) between neighbouring pixel rays at the image centre (x, y)."""
+    _, d0 = camera_rays(camera, np.array(0.5), np.array(0.5), n_water=n_water)
+    _, dx = camera_rays(camera, np.array(0.5 + 1.0 / width), np.array(0.5), n_water=n_water)
+    _, dy = camera_rays(camera, np.array(0.5), np.array(0.5 + 1.0 / height), n_water=n_water)
+    ax = float(np.arccos(np.clip(d0 @ dx, -1, 1)))
+    ay = float(np.arccos(np.clip(d0 @ dy, -1, 1)))
+    return ax, ay
+
+
+@dataclass(frozen=True, eq=False)
+class SceneSurfaces:
+    """All target surfaces of a scene as arrays (surface k ↔ object id k + 1).
+
+    Attributes
+    ----------
+    surfaces
+        The :class:`~rigsim.scene.targets.Surface` pieces.
+    labels
+        Object-id legend labels (``"target 0 colorchecker: dark skin"``), as the renderer's.
+    center, u, v, normal
+        (S, 3) arrays.
+    half_size
+        (S, 2) half extents along u and v (rectangles), radius in column 0 (disks).
+    is_disk
+        (S,) bool.
+    """
+
+    surfaces: tuple[Surface, ...]
+    labels: tuple[str, ...]
+    center: np.ndarray
+    u: np.ndarray
+    v: np.ndarray
+    normal: np.ndarray
+    half_size: np.ndarray
+    is_disk: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.surfaces)
+
+    def reflectance(self, wavelength_nm) -> np.ndarray:
+        """(S + 1, n_wl) reflectances; row 0 (no surface) is zero."""
+        wl = np.asarray(wavelength_nm, float)
+        rows = [np.zeros(wl.shape)]
+        for s in self.surfaces:
+            rows.append(np.interp(wl, np.asarray(s.wavelength_nm, float), np.asarray(s.reflectance, float)))
+        return np.stack(rows)
+
+
+def scene_surfaces(scene: Scene) -> SceneSurfaces:
+    """Collect the target surfaces of ``scene`` (ids and labels as the renderer's)."""
+    pieces, labels = [], []
+    for ti, t in enumerate(scene.targets):
+        if not (np.isfinite(t.distance_m) and t.distance_m > 0):
+            raise ConfigError(f"distance must be > 0 m, got {t.distance_m}", field=f"targets[{ti}].distance_m",
+                              allowed="> 0")
+        if not (np.isfinite(t.size_m) and t.size_m > 0):
+            raise ConfigError(f"size must be > 0 m, got {t.size_m}", field=f"targets[{ti}].size_m",
+                              allowed="> 0")
+        for p in target_surfaces(t, scene.camera):
+            if p.shape == "mesh":
+                raise ConfigError("the preview cannot draw mesh targets; use the renderer",
+                                  field=f"targets[{ti}]", allowed="colorchecker, disks, slanted-edge, bottom")
+            pieces.append(p)
+            labels.append(f"target {ti} {t.kind}: {p.name}")
+    S = len(pieces)
+
+    def arr(name):
+        return np.array([getattr(p, name) for p in pieces], float).reshape(S, 3)
+
+    half = np.array([p.size_m for p in pieces], float).reshape(S, 2) / 2.0
+    return SceneSurfaces(tuple(pieces), tuple(labels), arr("center_m"), arr("u_axis"), arr("v_axis"),
+                         arr("normal"), half, np.array([p.shape == "disk" for p in pieces], bool))
+
+
+def _hit_t(surf: SceneSurfaces, k: int, origin: np.ndarray, direction: np.ndarray) -> np.ndarray:
+    """Ray parameter of the hit with surface ``k`` (inf where missed)."""
+    c, n = surf.center[k], surf.normal[k]
+    den = direction @ n
+    with np.errstate(divide="ignore", invalid="ignore"):
+        t = np.where(np.abs(den) > 1e-12, ((c - origin) @ n) / den, np.inf)
+    p = origin + np.where(np.isfinite(t), t, 0.0)[..., None] * direction
+    a, b = (p - c) @ surf.u[k], (p - c) @ surf.v[k]
+    if surf.is_disk[k]:
+        inside = a * a + b * b <= surf.half_size[k, 0] ** 2
+    else:
+        inside = (np.abs(a) <= surf.half_size[k, 0]) & (np.abs(b) <= surf.half_size[k, 1])
+    return np.where(inside & (t > 0) & np.isfinite(t), t, np.inf)
+
+
+def cast_rays(surf: SceneSurfaces, origin: np.ndarray, direction: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """First hit of each ray: ``(t, object_id)`` (t = inf and id 0 where nothing is hit)."""
+    shape = direction.shape[:-1]
+    best = np.full(shape, np.inf)
+    oid = np.zeros(shape, np.int32)
+    for k in range(len(surf)):
+        t = _hit_t(surf, k, origin, direction)
+        hit = t < best
+        best = np.where(hit, t, best)
+        oid = np.where(hit, k + 1, oid)
+    return best, oid
+
+
+def occluded(surf: SceneSurfaces, points: np.ndarray, light_pos: np.ndarray, *,
+             exclude: np.ndarray | None = None, eps: float = 1e-6) -> np.ndarray:
+    """Whether the segment from each point to the light crosses a surface (other than ``exclude``)."""
+    d = np.asarray(light_pos, float) - points
+    dist = np.linalg.norm(d, axis=-1)
+    d = d / np.maximum(dist, 1e-300)[..., None]
+    blocked = np.zeros(points.shape[:-1], bool)
+    for k in range(len(surf)):
+        t = _hit_t(surf, k, points, d)
+        b = (t > eps) & (t < dist - eps)
+        if exclude is not None:
+            b &= exclude != k + 1
+        blocked |= b
+    return blocked

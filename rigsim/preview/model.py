@@ -1,0 +1,568 @@
+"""``render_preview(scene) → SpectralImage``: the Jaffe–McGlamery image model, vectorised.
+
+The image is the sum of three components (McGlamery 1980; Jaffe 1990):
+
+1. **Direct** — light from each lamp to the target and from the target to the camera
+   without scattering: for a Lambertian surface point at distance ``r`` from a light
+   and ``s`` (water path) from the port,
+   ``L_d = ρ/π Σ_l I_l(λ) f_l(θ) cos θ_i / r² · e^{−c r} · e^{−c s}``, with the beam
+   pattern ``f`` and on-axis spectrum ``I`` of each light exactly as the renderer's
+   emitter, optional shadows from the other surfaces.
+2. **Forward-scattered** — the same light turned by small angles on either leg
+   (small-angle approximation, all orders; see :mod:`rigsim.preview.forward`):
+   the target is lit by the beam blurred by forward scattering with amplitude
+   ``e^{−cr}(e^{bFr} − 1)`` as well, and its image is blurred on the way to the
+   camera with amplitude ``e^{−cs}(e^{bFs} − 1)``.
+3. **Backscatter** — light from the lamps scattered once, at a wide angle, by the
+   water in front of the target, integrated along each pixel's ray with the
+   water's own wavelength-dependent phase function (see
+   :mod:`rigsim.preview.backscatter`), plus the path radiance of daylight.
+
+Daylight (``scene.daylight``) comes from :func:`rigsim.daylight.ambient_light_field_at_depth`
+(Kd shortcut or Monte Carlo meter): the target is lit by the attenuated sun beam and
+uniform down- and up-welling hemispheres (no shadows), and each line of sight
+collects the path radiance ``J (1 − e^{−κ s})/κ`` with ``J = b ∫ p L_amb dΩ`` from
+the same field and ``κ = c − K_d d_y`` (the field grows by ``e^{K_d}`` per metre up).
+
+What is not in it: multiple wide-angle scattering (the "glow" of turbid water
+beyond a few optical depths), light scattered by more than the forward cut-off
+angle that then lights the target, interreflections, port optics (radiance is the
+in-water radiance at the port, as the renderer's).  The validation in
+``benchmarks/bench_preview.py`` shows where this matters.
+
+Conventions are the renderer's (:func:`rigsim.render.render`): bands are averages
+over ``[centre ± width/2]`` (the direct component by ``sub_bands``-point
+Gauss–Legendre quadrature in each band; the water, blur kernels and backscatter at
+band centres), strobes go to the ``flash`` layers in J/(m² sr nm) and continuous
+light to ``radiance``, object ids and ``range_m`` from the pixel-centre ray.
+
+References
+----------
+.. [McG80] B.L. McGlamery, "A computer model for underwater camera systems",
+   Proc. SPIE 208, Ocean Optics VI, 221–231 (1980).
+.. [Ja90] J.S. Jaffe, "Computer modeling and the design of optimal underwater
+   imaging systems", IEEE J. Oceanic Eng. 15(2):101–111 (1990).
+.. [We73] W.H. Wells, "Theory of small angle scattering", AGARD Lecture Series
+   61 (1973).
+.. [Ze91] E.P. Zege, A.P. Ivanov, I.L. Katsev, *Image Transfer Through a Scattering
+   Medium*, Springer (1991).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import time
+import warnings
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+from rigsim.errors import ConfigError
+from rigsim.preview.backscatter import (
+    LightTables,
+    beam_angle,
+    cumulative_backscatter,
+    interpolate_cumulative,
+    s_nodes,
+)
+from rigsim.preview.forward import SmallAngle
+from rigsim.preview.geometry import (
+    angular_pitch_rad,
+    camera_frame,
+    camera_rays,
+    cast_rays,
+    occluded,
+    pixel_grid_rays,
+    scene_surfaces,
+)
+from rigsim.preview.phase import phase_components
+from rigsim.scene.types import Scene, unit
+from rigsim.spectral_image import SpectralImage
+from rigsim.spectrum import DEFAULT_WAVELENGTHS_NM, MITSUBA_WAVELENGTH_RANGE_NM, as_wavelengths
+from rigsim.water.kd import WATER_INDEX
+
+__all__ = ["render_preview", "PREVIEW_LAYERS", "band_edges"]
+
+#: Ground-truth layers ``render_preview`` can make (as the renderer's).
+PREVIEW_LAYERS = ("range_m", "clear", "object_id", "direct", "backscatter")
+RENDERER_NAME = "rigsim.preview (Jaffe-McGlamery)"
+
+ProgressCallback = Callable[[float, str], None]
+
+
+def band_edges(wavelength_nm, bandwidth_nm=None) -> tuple[np.ndarray, np.ndarray]:
+    """Band centres and widths (nm), with the renderer's defaults and checks.
+
+    Default widths: the grid spacing (the smaller neighbour distance), 10 nm for a
+    single band; bands may not overlap and must lie in 360–830 nm.
+    """
+    wl = np.atleast_1d(as_wavelengths(wavelength_nm)).astype(float)
+    if wl.size > 1 and np.any(np.diff(wl) <= 0):
+        raise ConfigError("wavelengths must increase strictly", field="wavelengths_nm")
+    if bandwidth_nm is None:
+        if wl.size == 1:
+            bw = np.array([10.0])
+        else:
+            d = np.diff(wl)
+            bw = np.minimum(np.concatenate([[d[0]], d]), np.concatenate([d, [d[-1]]]))
+    else:
+        bw = np.broadcast_to(np.asarray(bandwidth_nm, float), wl.shape).copy()
+        if np.any(~np.isfinite(bw)) or np.any(bw <= 0):
+            raise ConfigError("band widths must be > 0 nm", field="bandwidth_nm", allowed="> 0")
+        if wl.size > 1 and np.any(wl[1:] - bw[1:] / 2 < wl[:-1] + bw[:-1] / 2 - 1e-9):
+            raise ConfigError("bands overlap", field="bandwidth_nm", allowed="widths no larger than the band spacing")
+    lo, hi = MITSUBA_WAVELENGTH_RANGE_NM
+    if wl[0] - bw[0] / 2 < lo - 1e-9 or wl[-1] + bw[-1] / 2 > hi + 1e-9:
+        raise ConfigError(f"bands {wl[0] - bw[0] / 2:g}–{wl[-1] + bw[-1] / 2:g} nm leave the supported range",
+                          field="wavelengths_nm", allowed=f"{lo:g}–{hi:g} nm")
+    return wl, bw
+
+
+def _check_int(name: str, v, lo: int, hi: int) -> int:
+    try:
+        iv = int(v)
+    except (TypeError, ValueError):
+        raise ConfigError(f"must be an integer, got {v!r}", field=name) from None
+    if iv != v or iv < lo or iv > hi:
+        raise ConfigError(f"must be an integer in [{lo}, {hi}], got {v!r}", field=name)
+    return iv
+
+
+def _check_lights(scene: Scene, lo: float, hi: float) -> None:
+    for light in scene.lights:
+        if light.kind not in ("strobe", "continuous"):
+            raise ConfigError(f"light {light.name!r}: kind must be strobe or continuous, got {light.kind!r}",
+                              field=f"lights.{light.name}.kind")
+        wl = np.asarray(light.wavelength_nm, float)
+        a = np.asarray(light.axial_intensity, float)
+        if wl.size == 0 or a.size != wl.size:
+            raise ConfigError(f"light {light.name!r}: intensity table is empty or mismatched",
+                              field=f"lights.{light.name}")
+        if wl.size > 1 and (wl[0] > lo + 1e-9 or wl[-1] < hi - 1e-9):
+            raise ConfigError(f"light {light.name!r} spectrum covers {wl[0]:g}–{wl[-1]:g} nm, the bands need "
+                              f"{lo:g}–{hi:g} nm", field=f"lights.{light.name}",
+                              allowed=f"a spectrum covering {lo:g}–{hi:g} nm")
+        if not np.all(np.isfinite(a)) or np.any(a < 0):
+            raise ConfigError(f"light {light.name!r}: intensities must be finite and >= 0",
+                              field=f"lights.{light.name}")
+
+
+@dataclasses.dataclass
+class _Water:
+    """IOPs at the direct component's sub-band wavelengths (B, S) and at band centres (B,)."""
+
+    c_sub: np.ndarray
+    b_sub: np.ndarray
+    F_sub: np.ndarray
+    c: np.ndarray
+    b: np.ndarray
+    F: np.ndarray
+    bw: np.ndarray  # (K, B) b_k at band centres
+    components: object
+    small_angle: SmallAngle | None
+
+
+def _water_at(scene: Scene, wl: np.ndarray, lam: np.ndarray, cutoff_rad: float, forward: bool) -> _Water | None:
+    water = scene.water
+    if water is None:
+        return None
+    lo, hi = water.wavelength_range_nm
+
+    def iops(x):
+        x = np.clip(x, lo, hi)
+        return water.c_per_m(x), water.b_per_m(x)
+
+    comps = phase_components(water.phase, water.wavelength_range_nm)
+    F_k = comps.forward_fraction(cutoff_rad) if forward else np.zeros(comps.n_components)
+    c_sub, b_sub = iops(lam)
+    c, b = iops(wl)
+    w_sub = comps.weights(lam.ravel())
+    w = comps.weights(wl)
+    F_sub = (w_sub @ F_k).reshape(lam.shape)
+    sa = SmallAngle(comps, cutoff_rad, b, w) if forward else None
+    return _Water(c_sub, b_sub, F_sub, c, b, w @ F_k, (b[:, None] * w).T, comps, sa)
+
+
+def _sub_band_wavelengths(wl: np.ndarray, bw: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """(B, n) Gauss–Legendre nodes inside each band and their weights (summing to 1)."""
+    x, w = np.polynomial.legendre.leggauss(n)
+    return wl[:, None] + 0.5 * bw[:, None] * x[None, :], w / 2.0
+
+
+def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
+                   wavelengths_nm: Sequence[float] = DEFAULT_WAVELENGTHS_NM, bandwidth_nm=None,
+                   layers: Sequence[str] = ("range_m", "clear", "object_id"), split: bool = False,
+                   shadows: bool = False, forward_scatter: bool = True, forward_cutoff_deg: float = 90.0,
+                   sub_bands: int = 3, pixel_samples: int = 1, backscatter_grid: int | None = 48,
+                   backscatter_nodes: int = 128, spp: int | None = None, seed: int | None = None,
+                   max_depth: int | None = None, progress: ProgressCallback | None = None) -> SpectralImage:
+    """Fast semi-analytic image of a :class:`~rigsim.scene.types.Scene` (see module docstring).
+
+    Parameters
+    ----------
+    scene
+        Camera, lights, targets, water (``None``: no water) and optional daylight.
+    width, height
+        Image size (pixels).
+    wavelengths_nm, bandwidth_nm
+        Band centres and widths (nm), as :func:`rigsim.render.render`.
+    layers, split
+        Ground-truth layers from :data:`PREVIEW_LAYERS`; ``split`` adds ``direct`` and
+        ``backscatter``.
+    shadows
+        Let target surfaces shadow the lights (on surfaces and in the water).
+    forward_scatter
+        Include the small-angle forward-scattered component (False: the classical
+        direct + single-backscatter model with ``e^{−c·}`` on every leg).
+    forward_cutoff_deg
+        Scattering by less than this angle is treated as forward scattering (deg, 0–90).
+    sub_bands
+        Gauss–Legendre points per band for the direct component (1: band centres).
+    pixel_samples
+        The direct component is averaged over ``pixel_samples²`` points per pixel
+        (1: the pixel centre; the renderer box-filters over the pixel).
+    backscatter_grid
+        Rays along the longer image side on which the backscatter integral is
+        computed and then interpolated (None: every pixel).
+    backscatter_nodes
+        Quadrature nodes along each ray.
+    spp, seed, max_depth
+        Accepted for call compatibility with :func:`rigsim.render.render` and ignored
+        (the preview is deterministic and has no sampling).
+    progress
+        Called as ``progress(fraction_done, message)``.
+
+    Returns
+    -------
+    SpectralImage
+        As :func:`rigsim.render.render`: ``radiance`` (continuous light and daylight,
+        W·m⁻²·sr⁻¹·nm⁻¹), ``flash``/``flash_*`` for strobes (J·m⁻²·sr⁻¹·nm⁻¹),
+        ``meta["renderer"] = "rigsim.preview (Jaffe-McGlamery)"``.
+
+    Examples
+    --------
+    >>> from rigsim.config.rig import load_rig
+    >>> from rigsim.scene.build import build_scene
+    >>> sc = build_scene(load_rig("rigs/twin-strobes-45-wide.toml"), "coastal", "colorchecker", 2.0)
+    >>> img = render_preview(sc, width=48, height=32)
+    >>> img.radiance.shape, sorted(img.layers)
+    ((32, 48, 31), ['clear', 'flash', 'flash_clear', 'object_id', 'range_m'])
+    """
+    t_start = time.perf_counter()
+    width = _check_int("width", width, 1, 16384)
+    height = _check_int("height", height, 1, 16384)
+    sub_bands = _check_int("sub_bands", sub_bands, 1, 16)
+    pixel_samples = _check_int("pixel_samples", pixel_samples, 1, 16)
+    backscatter_nodes = _check_int("backscatter_nodes", backscatter_nodes, 8, 4096)
+    if not 0.0 < float(forward_cutoff_deg) <= 90.0:
+        raise ConfigError(f"forward cut-off must be in (0, 90] deg, got {forward_cutoff_deg}",
+                          field="forward_cutoff_deg", allowed="0 < angle <= 90")
+    layers = tuple(layers)
+    for k in layers:
+        if k not in PREVIEW_LAYERS:
+            raise ConfigError(f"unknown layer {k!r}", field="layers", allowed=", ".join(PREVIEW_LAYERS))
+    if split:
+        layers = layers + tuple(k for k in ("direct", "backscatter") if k not in layers)
+    wl, bw = band_edges(wavelengths_nm, bandwidth_nm)
+    _check_lights(scene, float(wl[0] - bw[0] / 2), float(wl[-1] + bw[-1] / 2))
+    if scene.water is not None:
+        scene.water.check_range([float(wl[0]), float(wl[-1])])
+    camera_frame(scene.camera)  # validates forward/up
+    if abs(width / height - scene.camera.sensor_width_mm / scene.camera.sensor_height_mm) > 0.02 * width / height:
+        warnings.warn(f"image aspect {width}x{height} differs from the sensor's "
+                      f"{scene.camera.sensor_width_mm}x{scene.camera.sensor_height_mm} mm; "
+                      "pixels will not be square", RuntimeWarning, stacklevel=2)
+
+    def tick(frac, msg):
+        if progress is not None:
+            progress(frac, msg)
+
+    B = len(wl)
+    lam, lam_w = _sub_band_wavelengths(wl, bw, sub_bands)  # (B, S), (S,)
+    cutoff = np.radians(float(forward_cutoff_deg))
+    has_water = scene.water is not None
+    forward = bool(forward_scatter) and has_water
+    water = _water_at(scene, wl, lam, cutoff, forward)
+    surf = scene_surfaces(scene)
+    cam = scene.camera
+    pupil = np.asarray(cam.position_m, float)
+
+    # --- pixel-centre rays: geometry layers ----------------------------------------------
+    o_c, d_c, cols, rows = pixel_grid_rays(cam, width, height, n_water=WATER_INDEX)
+    t_c, oid_c = cast_rays(surf, o_c, d_c)
+    p_c = o_c + np.where(np.isfinite(t_c), t_c, 0.0)[..., None] * d_c
+    range_m = np.where(oid_c > 0, np.linalg.norm(p_c - pupil, axis=-1), np.inf).astype(np.float32)
+
+    # --- surface samples (pixel_samples² per pixel) ------------------------------------
+    n = pixel_samples
+    g = (np.arange(n) + 0.5) / n
+    PX = ((np.arange(width)[:, None] + g[None, :]).ravel() / width)
+    PY = ((np.arange(height)[:, None] + g[None, :]).ravel() / height)
+    PXg, PYg = np.meshgrid(PX, PY)  # (H n, W n)
+    o_s, d_s = camera_rays(cam, PXg, PYg, n_water=WATER_INDEX)
+    t_s, oid_s = cast_rays(surf, o_s, d_s)
+    hit = oid_s > 0
+    ts = np.where(hit, t_s, 0.0)
+    p_s = o_s + ts[..., None] * d_s
+    nrm = np.where(hit[..., None], surf.normal[np.maximum(oid_s - 1, 0)], 0.0)
+    nrm = np.where((np.sum(nrm * d_s, axis=-1) > 0)[..., None], -nrm, nrm)  # two-sided: face the camera
+    rho_sub = surf.reflectance(lam.ravel()).reshape(len(surf) + 1, B, sub_bands)  # (S+1, B, n_sub)
+    rho_c = surf.reflectance(wl)  # (S+1, B)
+    tick(0.1, "geometry")
+
+    groups = {"continuous": [l for l in scene.lights if l.kind == "continuous"],
+              "strobe": [l for l in scene.lights if l.kind == "strobe"]}
+    shape = (height, width, B)
+    sshape = p_s.shape[:-1] + (B,)
+    results: dict[tuple[str, str], np.ndarray] = {}
+    pitch = angular_pitch_rad(cam, width, height, n_water=WATER_INDEX)
+    world_r = _world_radius(scene)
+    l_max = float(np.max(ts)) if hit.any() else 1.0
+
+    for gi, (gname, lights) in enumerate(groups.items()):
+        has_day = gname == "continuous" and scene.daylight is not None and has_water
+        if not lights and not has_day:
+            continue
+        lights = [l for l in lights if np.any(np.asarray(l.axial_intensity, float) > 0)]
+        clear = np.zeros(sshape)
+        direct = np.zeros(sshape)
+        scattered = np.zeros(sshape)  # target lit by forward-scattered light, unscattered to the camera
+        tables = []
+        for light in lights:
+            lpos = np.asarray(light.position_m, float)
+            axis = unit(light.aim)
+            lwl, lval = np.asarray(light.wavelength_nm, float), np.asarray(light.axial_intensity, float)
+            v = p_s - lpos
+            r = np.linalg.norm(v, axis=-1)
+            vh = v / np.maximum(r, 1e-12)[..., None]
+            cos_i = np.clip(-np.sum(vh * nrm, axis=-1), 0.0, None) * hit
+            if shadows:
+                cos_i = cos_i * ~occluded(surf, p_s, lpos, exclude=oid_s)
+            theta = beam_angle(vh, axis)
+            f = light.beam.relative_intensity(theta)
+            geo = cos_i / (np.pi * np.maximum(r, 1e-9) ** 2)  # (h, w)
+            I_sub = np.interp(lam, lwl, lval)  # (B, n_sub)
+            I_c = np.interp(wl, lwl, lval)
+            # band averages of ρ I (clear) and of ρ I e^{−c L} on a table of path lengths L = r + s
+            clear += (geo * f)[..., None] * ((rho_sub * I_sub) @ lam_w)[oid_s]
+            if not has_water:
+                continue
+            r_hi = float(np.max(r[hit])) if hit.any() else 1.0
+            path = r + ts
+            L_nodes = np.linspace(0.0, max(float(np.max(path[hit])) if hit.any() else 1.0, 1e-3) * 1.0001, 513)
+            tab = np.einsum("kbs,lbs->klb", rho_sub * (I_sub * lam_w),
+                            np.exp(-water.c_sub[None] * L_nodes[:, None, None]), optimize=True)  # (S+1, nL, B)
+            direct += (geo * f)[..., None] * _interp_table(tab, oid_s, path, L_nodes)
+            lt = LightTables(lpos, axis, light.beam.relative_intensity, I_c)
+            if forward:
+                r_nodes = np.geomspace(0.05, max(world_r, 2 * r_hi), 16)
+                th_n, btab = water.small_angle.blurred_beam(light.beam, r_nodes)
+                lt = dataclasses.replace(lt, theta_nodes=th_n, r_nodes=r_nodes, blurred=btab)
+                fb = lt.blurred_at(theta, r)  # (h, w, B)
+                rr = r[..., None]
+                amp = np.exp(-water.c * rr) * np.expm1(water.b * water.F * rr)
+                scattered += geo[..., None] * fb * amp * (rho_c[oid_s] * I_c)
+            tables.append(lt)
+        if has_day:
+            E_sun, E_diff, day, kd_day = _daylight_on_surfaces(scene, p_s, nrm, hit, wl)
+            direct_day = rho_c[oid_s] / np.pi * E_sun
+            scattered += rho_c[oid_s] / np.pi * E_diff
+        clear = _pixel_mean(clear, n)
+        if not has_water:
+            results[(gname, "full")] = clear
+            results[(gname, "clear")] = clear
+            results[(gname, "direct")] = clear
+            results[(gname, "backscatter")] = np.zeros(shape)
+            continue
+        T = np.exp(-water.c * ts[..., None])
+        if has_day:
+            direct += direct_day * T
+        scattered *= T
+        fwd = np.zeros(shape)
+        if forward:
+            src = _pixel_mean((direct + scattered) * np.expm1(water.b * water.F * ts[..., None]), n)
+            fwd = water.small_angle.blur_image(src, range_m.astype(float), pitch)
+        direct, scattered = _pixel_mean(direct, n), _pixel_mean(scattered, n)
+        tick(0.3 + 0.3 * gi, f"{gname}: direct and forward")
+        back = np.zeros(shape)
+        if tables:
+            back += _backscatter(scene, surf, tables, water, forward, cam, width, height, t_c, cols, rows,
+                                 world_r, backscatter_grid, backscatter_nodes, shadows)
+        if has_day:
+            back += _daylight_path_radiance(day, kd_day, water, d_c, t_c, world_r)
+        tick(0.5 + 0.3 * gi, f"{gname}: backscatter")
+        results[(gname, "full")] = direct + scattered + fwd + back
+        results[(gname, "clear")] = clear
+        results[(gname, "direct")] = direct
+        results[(gname, "backscatter")] = back
+    zeros = np.zeros(shape, np.float32)
+    out_layers: dict[str, np.ndarray] = {}
+    radiance = results.get(("continuous", "full"), zeros).astype(np.float32)
+    for gname, prefix in (("continuous", ""), ("strobe", "flash_")):
+        if (gname, "full") not in results:
+            continue
+        if gname == "strobe":
+            out_layers["flash"] = results[(gname, "full")].astype(np.float32)
+        for k in ("clear", "direct", "backscatter"):
+            if k in layers:
+                out_layers[f"{prefix}{k}"] = results[(gname, k)].astype(np.float32)
+    if "range_m" in layers:
+        out_layers["range_m"] = range_m
+    if "object_id" in layers:
+        out_layers["object_id"] = oid_c.astype(np.int32)
+
+    meta = {
+        "renderer": RENDERER_NAME,
+        "engine": "preview",
+        "wavelength_nm": wl.tolist(),
+        "bandwidth_nm": bw.tolist(),
+        "width": width, "height": height, "spp": None, "seed": None,
+        "layers": list(out_layers),
+        "passes": [f"{g}:full" for g in ("continuous", "strobe") if (g, "full") in results],
+        "water": scene.water.describe() if has_water else None,
+        "camera": dataclasses.asdict(cam),
+        "fov_water_x_deg": _fov_water_deg(cam),
+        "lights": [_light_meta(l) for l in scene.lights],
+        "targets": [dataclasses.asdict(t) for t in scene.targets],
+        "object_ids": {str(i + 1): lab for i, lab in enumerate(surf.labels)},
+        "world_radius_m": world_r,
+        "radiance_reference": "in-water radiance arriving at the port, band-averaged (no port "
+                              "transmission or n^2 factor)",
+        "daylight_rendered": bool(scene.daylight is not None and has_water) if scene.daylight is not None else None,
+        "preview": {"forward_scatter": forward, "forward_cutoff_deg": float(forward_cutoff_deg),
+                    "shadows": bool(shadows), "sub_bands": sub_bands, "pixel_samples": pixel_samples,
+                    "backscatter_grid": backscatter_grid, "backscatter_nodes": backscatter_nodes,
+                    "ignored": {"spp": spp, "seed": seed, "max_depth": max_depth}},
+    }
+    meta["scene_hash"] = hashlib.sha256(json.dumps(
+        {k: meta[k] for k in ("water", "camera", "lights", "targets")}, sort_keys=True,
+        default=str).encode()).hexdigest()[:16]
+    meta["wall_time_s"] = time.perf_counter() - t_start
+    tick(1.0, "done")
+    return SpectralImage(radiance=radiance, wavelength_nm=wl, bandwidth_nm=bw, layers=out_layers, meta=meta)
+
+
+# ---------------------------------------------------------------------------------------
+def _interp_table(tab: np.ndarray, oid: np.ndarray, x: np.ndarray, nodes: np.ndarray) -> np.ndarray:
+    """``tab[oid, ·, :]`` read at ``x`` on the uniform ``nodes`` (linear): shape ``x.shape + (B,)``."""
+    u = np.clip((x - nodes[0]) / (nodes[1] - nodes[0]), 0.0, len(nodes) - 1.000001)
+    j = u.astype(np.int64)
+    fr = (u - j)[..., None]
+    return tab[oid, j] * (1 - fr) + tab[oid, j + 1] * fr
+
+
+def _pixel_mean(a: np.ndarray, n: int) -> np.ndarray:
+    if n == 1:
+        return a
+    H, W = a.shape[0] // n, a.shape[1] // n
+    return a.reshape(H, n, W, n, *a.shape[2:]).mean(axis=(1, 3))
+
+
+def _world_radius(scene: Scene) -> float:
+    """The renderer's water sphere radius (m): ≥ 1 km and ≫ every distance in the scene."""
+    pts = [np.asarray(scene.camera.position_m, float)] + [np.asarray(l.position_m, float) for l in scene.lights]
+    ext = max([t.distance_m for t in scene.targets] + [float(np.linalg.norm(p)) for p in pts] + [1.0])
+    return float(max(1000.0, 100.0 * ext))
+
+
+def _fov_water_deg(camera) -> float:
+    half_air = np.radians(camera.fov_air_x_deg) / 2
+    if camera.port.kind == "flat":
+        return float(np.degrees(2 * np.arcsin(np.sin(half_air) / WATER_INDEX)))
+    return float(np.degrees(2 * half_air))
+
+
+def _light_meta(light) -> dict:
+    d = dataclasses.asdict(light)
+    d.pop("wavelength_nm", None)
+    d.pop("axial_intensity", None)
+    wl = np.asarray(light.wavelength_nm, float)
+    a = np.asarray(light.axial_intensity, float)
+    d["axial_intensity_range"] = [float(a.min()), float(a.max())] if a.size else []
+    d["wavelength_range_nm"] = [float(wl.min()), float(wl.max())] if wl.size else []
+    return d
+
+
+def _backscatter(scene, surf, tables, water, forward, cam, width, height, t_c, cols, rows, world_r,
+                 grid, n_nodes, shadows) -> np.ndarray:
+    kappa_cam = water.c - water.b * water.F if forward else water.c
+    kappa_light = water.c - water.b * water.F if forward else water.c
+    k_min = float(np.min(kappa_cam + kappa_light))
+    s_max = world_r if k_min <= 0 else min(world_r, 50.0 / k_min)
+    s, _ = s_nodes(s_max, n_nodes)
+    if grid is None:
+        o, d, gcol, grow = pixel_grid_rays(cam, width, height, n_water=WATER_INDEX)
+    else:
+        step = max(width, height) / float(grid)
+        o, d, gcol, grow = pixel_grid_rays(cam, width, height, n_water=WATER_INDEX, step=max(step, 1e-9))
+    cum = cumulative_backscatter(o.reshape(-1, 3), d.reshape(-1, 3), s, tables, bw=water.bw, c=water.c,
+                                 kappa_light=kappa_light, kappa_cam=kappa_cam,
+                                 components=water.components, forward=forward,
+                                 surfaces=surf if shadows else None)
+    C, R = np.meshgrid(cols, rows)
+    return interpolate_cumulative(cum, (len(grow), len(gcol)), gcol, grow, s, C, R, t_c)
+
+
+# --- daylight ------------------------------------------------------------------------------
+def _daylight_field(scene: Scene, wl_flat: np.ndarray):
+    from rigsim.daylight import ambient_light_field_at_depth
+
+    return ambient_light_field_at_depth(scene.daylight, scene.water, wl_flat)
+
+
+def _daylight_on_surfaces(scene: Scene, p, nrm, hit, wl):
+    """Daylight irradiance on the surface samples at band centres: (unscattered sun, diffuse), the field, Kd."""
+    water = scene.water
+    lo, hi = water.wavelength_range_nm
+    wl_c = np.clip(wl, lo, hi)
+    day = _daylight_field(scene, wl_c)
+    kd = water.kd_per_m(wl_c, scene.daylight.sun_zenith_deg)
+    c = water.c_per_m(wl_c)
+    cam_y = float(scene.camera.position_m[1])
+    dz = (cam_y - p[..., 1])[..., None]  # how much deeper than the camera (m)
+    sun_dir = np.asarray(day.sun.direction, float)
+    mu_w = np.cos(np.radians(day.sun.zenith_water_deg))
+    cos_sun = np.clip(-(nrm @ sun_dir), 0.0, None) * hit
+    ny = nrm[..., 1]
+    E_sun = cos_sun[..., None] * day.sun.irradiance_normal * np.exp(-c * dz / mu_w)
+    E_diff = (np.pi * day.diffuse_down_radiance * ((1 + ny) / 2 * hit)[..., None]
+              + np.pi * day.up_radiance * ((1 - ny) / 2 * hit)[..., None]) * np.exp(-kd * dz)
+    return E_sun, E_diff, day, kd
+
+
+def _daylight_path_radiance(day, kd, water, d, t_hit, world_r) -> np.ndarray:
+    """Path radiance of daylight along each pixel ray (H, W, B): ``J (1 − e^{−κ s})/κ``, ``κ = c − Kd d_y``."""
+    comps = water.components
+    mu = np.linspace(-1, 1, 41)
+    hd, hu = _hemisphere_phase_integrals(comps, mu)  # (n_mu, K) each
+    out_dir = -d  # the scattered light travels towards the camera
+    mu_pix = out_dir[..., 1]
+    Hd = np.stack([np.interp(mu_pix, mu, hd[:, k]) for k in range(hd.shape[1])], axis=-1) @ water.bw
+    Hu = np.stack([np.interp(mu_pix, mu, hu[:, k]) for k in range(hu.shape[1])], axis=-1) @ water.bw
+    cos_sun = out_dir @ np.asarray(day.sun.direction, float)
+    Ps = comps.eval_components(cos_sun) @ water.bw
+    J = Ps * day.sun.irradiance_normal + Hd * day.diffuse_down_radiance + Hu * day.up_radiance
+    # going up (d_y > 0) the field grows as e^{Kd d_y s}
+    kappa = water.c - kd * d[..., 1:2]
+    s = np.minimum(np.where(np.isfinite(t_hit), t_hit, world_r), world_r)[..., None]
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        frac = np.where(np.abs(kappa) > 1e-12, -np.expm1(-kappa * s) / np.where(np.abs(kappa) > 1e-12, kappa, 1.0), s)
+    return J * frac
+
+
+def _hemisphere_phase_integrals(comps, mu_out: np.ndarray, n_theta: int = 96, n_phi: int = 64):
+    """For outgoing directions with vertical component ``mu_out``: ∫ p_k over incoming light going down / up."""
+    ct = (np.arange(n_theta) + 0.5) / n_theta  # |cos| of the incoming direction, uniform in cos
+    phi = (np.arange(n_phi) + 0.5) / n_phi * 2 * np.pi
+    so = np.sqrt(np.clip(1 - mu_out ** 2, 0, None))
+    st = np.sqrt(1 - ct ** 2)
+    dO = (1.0 / n_theta) * (2 * np.pi / n_phi)
+    out = []
+    for sign in (-1.0, 1.0):  # incoming light going down (y < 0), going up
+        cy = sign * ct
+        cos_psi = (mu_out[:, None, None] * cy[None, :, None]
+                   + so[:, None, None] * st[None, :, None] * np.cos(phi)[None, None, :])
+        out.append(comps.eval_components(cos_psi).sum(axis=(1, 2)) * dO)
+    return out[0], out[1]
