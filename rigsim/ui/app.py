@@ -1,0 +1,846 @@
+"""The rig designer: a trame web app over the rigsim API (``rigsim app``).
+
+Left: the rig (file, camera and port, each light's arm, aim, beam, power and
+spectrum), the water (preset or constituents, depth), the subject (target,
+distance, size) and the camera (sensor, exposure, white balance).  Middle: the
+3-D layout (PyVista, rendered on the server and streamed as images, so the page
+needs no GPU) next to the predicted photograph and its numbers.  Bottom: the
+same rig across waters or distances, or two rigs, side by side, with a
+contrast-versus-distance plot.
+
+Every edit is validated by the same parser as the CLI; a refused edit shows the
+parser's one-line message and leaves the last valid rig in use.  Work runs in one
+background thread: the preview (about a second), then the comparison; a new edit
+supersedes stale work, and cancels a converged render in progress.
+
+Files are read and written only inside ``rigs/`` and the ``--workdir`` folder
+(:class:`rigsim.ui.files.FileSandbox`); waters, sensors and spectra are chosen
+from lists, never from paths a browser sends.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import base64
+import dataclasses
+import io
+import json
+import logging
+import math
+import os
+import threading
+import time
+from collections import OrderedDict
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+from rigsim.errors import ConfigError, RigsimError
+from rigsim.ui.files import FileSandbox, default_rigs_dir
+from rigsim.ui.predict import (PREVIEW, QUALITIES, TARGETS, WHITE_BALANCES, Conditions, Prediction,
+                               contrast_curve, load_water_cached, predict, preview_engine)
+from rigsim.ui.rigdoc import SPECTRA, RigDoc, parse_number
+
+log = logging.getLogger(__name__)
+
+__all__ = ["RigDesigner", "create_app", "main", "DEFAULT_RIG"]
+
+#: The rig the designer opens with.
+DEFAULT_RIG = "twin-strobes-45-wide.toml"
+DEFAULT_WATER = "coastal"
+DEFAULT_SENSOR = "sony_ilce-7rm2"
+#: Distances of the contrast-versus-distance curve (m).
+CURVE_DISTANCES_M = (0.5, 1.0, 1.5, 2.0, 3.0, 4.0)
+TARGET_SIZES = {"real size": None, "fills 25% of frame": 0.25, "fills 50% of frame": 0.5,
+                "fills 75% of frame": 0.75}
+MAX_COMPARE = 4
+_DEBOUNCE_S = 0.15
+
+#: UI variable of each editable light field (flat keys for the selected light).
+LIGHT_VARS = {"l_name": "name", "l_arm_length_m": "arm_length_m", "l_arm_angle_deg": "arm_angle_deg",
+              "l_arm_forward_m": "arm_forward_m", "l_yaw_deg": "yaw_deg", "l_pitch_deg": "pitch_deg",
+              "l_beam_angle_deg": "beam_angle_deg", "l_spectrum": "spectrum",
+              "l_guide_number_m": "guide_number_m", "l_flash_energy_J": "flash_energy_J",
+              "l_power_fraction": "power_fraction", "l_lumens": "lumens"}
+AIM_AT_VARS = ("l_aim_r", "l_aim_u", "l_aim_f")
+CAMERA_VARS = {"c_focal_length_mm": "focal_length_mm", "c_f_number": "f_number",
+               "c_housing_radius_m": "housing_radius_m", "c_port_kind": "port_kind",
+               "c_port_radius_m": "port_radius_m", "c_rig_name": "rig_name"}
+COND_VARS = ("water", "use_constituents", "chl", "cdom", "small", "large", "depth_m", "distance_m", "target",
+             "target_size", "sensor", "exposure_mode", "shutter_inv", "iso", "flash_pct", "white_balance")
+
+
+class _Cancelled(Exception):
+    pass
+
+
+def png_data_url(rgb8: np.ndarray) -> str:
+    import cv2
+
+    ok, buf = cv2.imencode(".png", np.ascontiguousarray(np.asarray(rgb8)[..., ::-1]))
+    if not ok:
+        return ""
+    return "data:image/png;base64," + base64.b64encode(buf.tobytes()).decode("ascii")
+
+
+def fmt_shutter(t: float) -> str:
+    return f"1/{1 / t:.0f} s" if t < 0.5 else f"{t:.2g} s"
+
+
+def metric_rows(pred: Prediction) -> list[dict]:
+    """Label, value text and raw value of each number under an image."""
+    m = pred.metrics
+    rows = []
+
+    def add(key, label, text, hint):
+        rows.append({"key": key, "label": label, "text": text, "value": m.get(key), "hint": hint})
+
+    add("contrast_radiance", "Contrast (scene)",
+        f"{m['contrast_radiance']:.3f}" if "contrast_radiance" in m else "–",
+        "Michelson contrast of the target in the light reaching the port (white vs black patch)")
+    add("contrast_image", "Contrast (image)", f"{m['contrast_image']:.3f}" if "contrast_image" in m else "–",
+        "the same in the developed photograph")
+    add("backscatter_share", "Backscatter", f"{100 * m['backscatter_share']:.1f} %" if "backscatter_share" in m
+        else "–", "share of the target pixels' light scattered back by the water")
+    if "snr_white" in m:
+        snr = m["snr_white"]
+        add("snr_white", "SNR (white)", f"{snr:.0f} : 1  ({20 * math.log10(max(snr, 1e-9)):.1f} dB)",
+            "sensor temporal SNR at the white patch (EMVA 1288)")
+    else:
+        add("snr_white", "SNR (white)", "–", "sensor temporal SNR at the white patch (EMVA 1288)")
+    add("delta_e_mean", "Colour error ΔE2000", f"{m['delta_e_mean']:.1f}" if "delta_e_mean" in m else "–",
+        "mean over the 24 chart patches vs the chart in daylight (after white balance)")
+    return rows
+
+
+def exposure_text(pred: Prediction) -> str:
+    e = pred.exposure
+    parts = [fmt_shutter(e["shutter_s"]), f"ISO {e['iso']:.0f}", f"f/{e['f_number']:g}"]
+    if e.get("flash_scale") is not None:
+        parts.append(f"strobes at {100 * e['flash_scale']:.0f}%")
+    parts.append(f"WB {e['white_balance']}")
+    text = " · ".join(parts)
+    if pred.notes:
+        text += " — " + "; ".join(pred.notes)
+    return text
+
+
+def curve_svg(series: list[dict], current_m: float) -> str:
+    """Contrast (solid) and backscatter share (dashed) against distance, one colour per series."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(5.2, 3.0), dpi=100)
+    ax2 = ax.twinx()
+    colours = ["#1f77b4", "#d62728", "#2ca02c", "#9467bd", "#ff7f0e"]
+    for i, s in enumerate(series):
+        pts = [p for p in s["points"] if p.get("contrast_radiance") is not None]
+        if not pts:
+            continue
+        c = colours[i % len(colours)]
+        d = [p["distance_m"] for p in pts]
+        ax.plot(d, [p["contrast_radiance"] for p in pts], "-o", color=c, ms=3.5, lw=1.8, label=s["label"])
+        bs = [(p["distance_m"], p["backscatter_share"]) for p in pts if p.get("backscatter_share") is not None]
+        if bs:
+            ax2.plot(*zip(*bs), "--", color=c, lw=1.0, alpha=0.7)
+    ax.axvline(current_m, color="0.5", lw=0.8, ls=":")
+    ax.set_xlabel("distance to subject (m)")
+    ax.set_ylabel("contrast (scene), solid")
+    ax2.set_ylabel("backscatter share, dashed")
+    ax.set_ylim(0, 1.0)
+    ax2.set_ylim(0, 1.0)
+    ax.grid(alpha=0.3)
+    if any(s["points"] for s in series):
+        ax.legend(fontsize=8, loc="lower left")
+    fig.tight_layout()
+    buf = io.StringIO()
+    fig.savefig(buf, format="svg")
+    plt.close(fig)
+    return "data:image/svg+xml;base64," + base64.b64encode(buf.getvalue().encode()).decode("ascii")
+
+
+class _LRU(OrderedDict):
+    def __init__(self, n: int):
+        super().__init__()
+        self.n = n
+
+    def put(self, k, v):
+        self[k] = v
+        self.move_to_end(k)
+        while len(self) > self.n:
+            self.popitem(last=False)
+
+
+class RigDesigner:
+    """State, callbacks and layout of the rig designer on one trame server."""
+
+    def __init__(self, server, sandbox: FileSandbox, *, rig_path: str | Path | None = None,
+                 view: str = "server"):
+        import pyvista as pv
+
+        self.server = server
+        self.state = server.state
+        self.ctrl = server.controller
+        self.sandbox = sandbox
+        self.view_mode = view
+        self.pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="rigsim-ui")
+        self.gen = 0
+        self._wake: asyncio.Event | None = None
+        self._cancel_render = threading.Event()
+        self._render_task = None
+        self._cache_pred = _LRU(64)
+        self._cache_curve = _LRU(512)
+        self._drawn: set[str] = set()
+        self._camera_set = False
+        self.pinned: RigDoc | None = None
+
+        pv.OFF_SCREEN = True
+        self.plotter = pv.Plotter(off_screen=True, window_size=(720, 480))
+        self.plotter.enable_trackball_style() if hasattr(self.plotter, "enable_trackball_style") else None
+
+        path = Path(rig_path) if rig_path else default_rigs_dir() / DEFAULT_RIG
+        try:
+            self.doc = RigDoc.load(path)
+        except RigsimError as exc:
+            log.warning("cannot open %s (%s); starting from an empty rig", path, exc)
+            self.doc = RigDoc({"rig": {"name": "new-rig"}, "camera": {}, "port": {}, "lights": []})
+        self.rig = self.doc.rig()
+        self.cond = Conditions(water=DEFAULT_WATER, sensor=DEFAULT_SENSOR)
+        self._init_state()
+        self._register()
+        self._layout()
+
+    # ----------------------------------------------------------------- state
+    def _file_items(self):
+        return [{"title": f"{f['folder']}/{f['name']}", "value": f"{f['folder']}/{f['name']}"}
+                for f in self.sandbox.list_files()]
+
+    def _init_state(self):
+        from rigsim.sensor import available_sensors
+        from rigsim.water import preset_names
+
+        s = self.state
+        self.waters = list(preset_names())
+        self.sensors = list(available_sensors())
+        s.update({
+            "engine": preview_engine()[0],
+            "message": "", "message_type": "info",
+            "file_items": self._file_items(), "file_sel": None,
+            "folder_items": list(self.sandbox.folders), "save_folder": list(self.sandbox.folders)[-1],
+            "save_name": f"{self.doc.name}.toml", "save_overwrite": False,
+            "file_message": "", "file_message_type": "info",
+            "light_items": [], "light_index": 0, "has_lights": False,
+            "l_kind": "strobe", "l_aim_mode": "angles", "l_power_mode": "guide_number", "l_beam_mode": "cone",
+            "l_beam_profile": "", "spectrum_items": list(SPECTRA),
+            "water_items": self.waters, "water": self.cond.water, "use_constituents": False,
+            "chl": None, "cdom": None, "small": None, "large": None, "constituents_ok": True,
+            "depth_m": self.cond.depth_m, "distance_m": self.cond.distance_m,
+            "target_items": list(TARGETS), "target": self.cond.target,
+            "target_size_items": list(TARGET_SIZES), "target_size": "fills 50% of frame",
+            "sensor_items": self.sensors, "sensor": self.cond.sensor,
+            "exposure_mode": "auto", "shutter_inv": 125, "iso": 100, "flash_pct": 100,
+            "wb_items": list(WHITE_BALANCES), "white_balance": "auto",
+            "preview_src": "", "preview_title": "", "preview_info": "starting…", "preview_gen": 0,
+            "preview_busy": True, "metric_rows": [], "metric_values": {}, "exposure_text": "",
+            "render_quality_items": list(QUALITIES), "render_quality": list(QUALITIES)[1],
+            "render_running": False, "render_progress": 0, "render_message": "",
+            "compare_mode": "waters", "compare_mode_items": [
+                {"title": "Waters (same rig, same distance)", "value": "waters"},
+                {"title": "Distances (same rig, same water)", "value": "distances"},
+                {"title": "Two rigs (this rig vs B)", "value": "rigs"}],
+            "compare_waters": ["coastal", "clear"], "compare_distances": "0.75, 1.5, 3",
+            "compare_rig_b": None, "compare_rig_items": [], "compare_auto": True,
+            "compare_cells": [], "compare_plot": "", "compare_busy": False, "compare_info": "",
+            "water_rgb": "#206060",
+        })
+        for v in list(LIGHT_VARS) + list(AIM_AT_VARS) + list(CAMERA_VARS):
+            s[f"err_{v}"] = []
+        self._sync_rig_vars()
+
+    def _compare_rig_items(self):
+        items = [{"title": "pinned copy of this rig", "value": "@pinned"}] if self.pinned else []
+        return items + self._file_items()
+
+    def _sync_rig_vars(self):
+        """Push the document's values into the UI variables (after load, light switch, mode change)."""
+        s = self.state
+        names = self.doc.light_names()
+        s.light_items = [{"title": f"{i + 1}: {n}", "value": i} for i, n in enumerate(names)]
+        s.has_lights = bool(names)
+        if s.light_index is None or s.light_index >= len(names):
+            s.light_index = 0
+        if names:
+            v = self.doc.light_view(int(s.light_index))
+            for var, key in LIGHT_VARS.items():
+                s[var] = v[key]
+            for var, x in zip(AIM_AT_VARS, v["aim_at_m"]):
+                s[var] = x
+            s.l_kind, s.l_aim_mode, s.l_power_mode = v["kind"], v["aim_mode"], v["power_mode"]
+            s.l_beam_mode, s.l_beam_profile = v["beam_mode"], v["beam_profile"]
+            s.spectrum_items = list(SPECTRA) + ([v["spectrum"]] if v["spectrum"] not in SPECTRA else [])
+        cv = self.doc.camera_view()
+        for var, key in CAMERA_VARS.items():
+            s[var] = cv[key]
+        for v in list(LIGHT_VARS) + list(AIM_AT_VARS) + list(CAMERA_VARS):
+            s[f"err_{v}"] = []
+        s.compare_rig_items = self._compare_rig_items()
+
+    # ----------------------------------------------------------------- edits
+    def _say(self, text: str, kind: str = "info"):
+        self.state.message, self.state.message_type = text, kind
+
+    def _refuse(self, var: str | None, exc: Exception):
+        text = str(exc)
+        self._say(f"Refused: {text}", "error")
+        if var:
+            self.state[f"err_{var}"] = [text.split(": ", 1)[-1] if len(text) > 90 else text]
+
+    def _accept(self, doc: RigDoc, var: str | None = None):
+        self.doc = doc
+        self.rig = doc.rig()
+        if var:
+            self.state[f"err_{var}"] = []
+        if self.state.message_type == "error":
+            self._say("")
+        self._changed()
+
+    def _on_light_var(self, var: str, value):
+        if not self.state.has_lights:
+            return
+        i = int(self.state.light_index or 0)
+        key = LIGHT_VARS[var]
+        current = self.doc.light_view(i)[key]
+        if key == "spectrum":
+            value = str(value)
+            if value not in SPECTRA and not value.startswith("blackbody:") and value != current:
+                self._refuse(var, ConfigError("choose a named spectrum or blackbody:T (K)",
+                                              field=f"lights[{i}].spectrum", allowed=", ".join(SPECTRA)))
+                return
+        if key not in ("name", "spectrum"):
+            try:
+                if abs(parse_number(value, key) - float(current)) < 1e-9:
+                    self.state[f"err_{var}"] = []
+                    return
+            except ConfigError as exc:
+                self._refuse(var, ConfigError(exc.message, field=f"lights[{i}].{key}"))
+                return
+        elif str(value) == str(current):
+            return
+        try:
+            doc = self.doc.edit_light(i, key, value)
+        except ConfigError as exc:
+            self._refuse(var, exc)
+            return
+        self._accept(doc, var)
+        if key == "name":
+            self.state.light_items = [{"title": f"{j + 1}: {n}", "value": j}
+                                      for j, n in enumerate(self.doc.light_names())]
+
+    def _on_aim_at(self, **_):
+        if not self.state.has_lights or self.state.l_aim_mode != "point":
+            return
+        i = int(self.state.light_index or 0)
+        vals = [self.state[v] for v in AIM_AT_VARS]
+        cur = self.doc.light_view(i)
+        try:
+            nums = [parse_number(x, f"lights[{i}].aim_at_m") for x in vals]
+        except ConfigError as exc:
+            self._refuse("l_aim_f", exc)
+            return
+        if "aim_at_m" in self.doc.data["lights"][i] and np.allclose(nums, cur["aim_at_m"], atol=1e-9):
+            return
+        try:
+            doc = self.doc.edit_light(i, "aim_at_m", nums)
+        except ConfigError as exc:
+            self._refuse("l_aim_f", exc)
+            return
+        self._accept(doc, "l_aim_f")
+
+    def _on_mode(self, which: str, value):
+        if not self.state.has_lights:
+            return
+        i = int(self.state.light_index or 0)
+        v = self.doc.light_view(i)
+        try:
+            if which == "aim" and value != v["aim_mode"]:
+                doc = self.doc.set_aim_mode(i, value)
+            elif which == "power" and value != v["power_mode"] and v["kind"] == "strobe":
+                doc = self.doc.set_power_mode(i, value)
+            else:
+                return
+        except ConfigError as exc:
+            self._refuse(None, exc)
+            return
+        self._accept(doc)
+        self._sync_rig_vars()
+
+    def _on_camera_var(self, var: str, value):
+        key = CAMERA_VARS[var]
+        cur = self.doc.camera_view()[key]
+        if key in ("port_kind", "rig_name"):
+            if str(value) == str(cur):
+                return
+        else:
+            try:
+                if cur is not None and abs(parse_number(value, key) - float(cur)) < 1e-9:
+                    self.state[f"err_{var}"] = []
+                    return
+            except ConfigError as exc:
+                self._refuse(var, exc)
+                return
+        try:
+            doc = self.doc.edit_camera(key, value)
+        except ConfigError as exc:
+            self._refuse(var, exc)
+            return
+        self._accept(doc, var)
+        if key == "rig_name":
+            self.state.save_name = f"{value}.toml"
+
+    def _conditions(self) -> Conditions:
+        """The conditions from the UI, validated (waters and sensors only from their lists)."""
+        s = self.state
+        if s.water not in self.waters:
+            raise ConfigError(f"unknown water {s.water!r}", field="water", allowed="a preset from the list")
+        overrides = ()
+        if s.use_constituents:
+            if s.water.lower().startswith("jerlov"):
+                raise ConfigError("constituents apply to the six constituent presets, not Jerlov types",
+                                  field="water")
+            ov = []
+            for var, key in (("chl", "chl_mg_per_m3"), ("cdom", "cdom_a440_per_m"),
+                             ("small", "small_particles_ppm"), ("large", "large_particles_ppm")):
+                val = s[var]
+                if val is None or str(val).strip() == "":
+                    continue
+                x = parse_number(val, key)
+                if x < 0 or x > 1000:
+                    raise ConfigError(f"out of range: {x:g}", field=key, allowed="0 … 1000")
+                ov.append((key, x))
+            overrides = tuple(ov)
+        if s.sensor not in self.sensors:
+            raise ConfigError(f"unknown sensor {s.sensor!r}", field="sensor", allowed=", ".join(self.sensors))
+        if s.target not in TARGETS:
+            raise ConfigError(f"unknown target {s.target!r}", field="target", allowed=", ".join(TARGETS))
+        if s.target_size not in TARGET_SIZES:
+            raise ConfigError(f"unknown target size {s.target_size!r}", field="target_size")
+        if s.white_balance not in WHITE_BALANCES:
+            raise ConfigError(f"unknown white balance {s.white_balance!r}", field="white_balance")
+        d = parse_number(s.distance_m, "distance_m")
+        depth = parse_number(s.depth_m, "depth_m")
+        if not 0 <= depth <= 200:
+            raise ConfigError(f"out of range: {depth:g} m", field="depth_m", allowed="0 … 200 m")
+        if not 0 < d <= 30:
+            raise ConfigError(f"out of range: {d:g} m", field="distance_m", allowed="0 … 30 m")
+        kw = {}
+        if s.exposure_mode == "manual":
+            inv = parse_number(s.shutter_inv, "shutter (1/s)")
+            iso = parse_number(s.iso, "iso")
+            fp = parse_number(s.flash_pct, "strobe output (%)")
+            if not 0.5 <= inv <= 32000:
+                raise ConfigError(f"out of range: 1/{inv:g} s", field="shutter", allowed="1/32000 … 2 s")
+            if not 25 <= iso <= 409600:
+                raise ConfigError(f"out of range: {iso:g}", field="iso", allowed="25 … 409600")
+            if not 0 <= fp <= 100:
+                raise ConfigError(f"out of range: {fp:g} %", field="strobe output", allowed="0 … 100 %")
+            kw = {"shutter_s": 1.0 / inv, "iso": iso, "flash_scale": fp / 100.0}
+        return Conditions(water=s.water, water_overrides=overrides, distance_m=d, target=s.target,
+                          target_fill=TARGET_SIZES[s.target_size], sensor=s.sensor,
+                          exposure="manual" if s.exposure_mode == "manual" else "auto",
+                          white_balance=s.white_balance, depth_m=depth, **kw)
+
+    def _on_cond(self, **_):
+        try:
+            cond = self._conditions()
+            load_water_cached(cond.water, cond.water_overrides)
+        except ConfigError as exc:
+            self._refuse(None, exc)
+            return
+        if self.state.message_type == "error":
+            self._say("")
+        if cond != self.cond:
+            self.cond = cond
+            self._changed()
+
+    def _changed(self):
+        self.gen += 1
+        self.state.preview_busy = True
+        if self.state.render_running:
+            self._cancel_render.set()
+        if self._wake is not None:
+            self._wake.set()
+
+    # ----------------------------------------------------------------- files
+    def load_rig(self):
+        sel = self.state.file_sel
+        try:
+            if not sel or "/" not in str(sel):
+                raise ConfigError("choose a rig file first", field="file")
+            folder, name = str(sel).split("/", 1)
+            path, text = self.sandbox.read_text(name, folder=folder)
+            doc = RigDoc.loads(text, source=path.name, base_dir=path.parent)
+        except ConfigError as exc:
+            self.state.file_message, self.state.file_message_type = f"Refused: {exc}", "error"
+            return
+        self.state.light_index = 0
+        self.doc = doc
+        self.rig = doc.rig()
+        self._sync_rig_vars()
+        self.state.save_name = path.name
+        self.state.file_message, self.state.file_message_type = f"Loaded {sel}", "success"
+        self._say("")
+        self._changed()
+
+    def save_rig(self):
+        s = self.state
+        try:
+            folder = s.save_folder if s.save_folder in self.sandbox.folders else None
+            if folder is None:
+                raise ConfigError("choose a folder", field="folder", allowed=", ".join(self.sandbox.folders))
+            target = self.sandbox.resolve(str(s.save_name or ""), folder=folder)
+            doc = self.doc.relocated(target.parent, target.name)
+            doc.rig()  # still valid from its new home (relative CSV paths)
+            text = doc.to_toml(header=f"{doc.name}: saved by the rigsim rig designer.\n"
+                                      "Format: rigs/README.md (frames: light positions [right, up, forward] in m).")
+            RigDoc.loads(text, source=target.name, base_dir=target.parent)  # round trip before writing
+            path = self.sandbox.write_text(str(s.save_name), text, folder=folder, overwrite=bool(s.save_overwrite))
+        except ConfigError as exc:
+            s.file_message, s.file_message_type = f"Refused: {exc}", "error"
+            return
+        s.file_message, s.file_message_type = f"Saved {folder}/{path.name}", "success"
+        s.file_items = self._file_items()
+        s.compare_rig_items = self._compare_rig_items()
+
+    def add_light(self, kind: str = "strobe"):
+        try:
+            doc = self.doc.add_light(kind)
+        except ConfigError as exc:
+            self._refuse(None, exc)
+            return
+        self._accept(doc)
+        self.state.light_index = len(self.doc.light_names()) - 1
+        self._sync_rig_vars()
+
+    def remove_light(self):
+        if not self.state.has_lights:
+            return
+        try:
+            doc = self.doc.remove_light(int(self.state.light_index or 0))
+        except ConfigError as exc:
+            self._refuse(None, exc)
+            return
+        self._accept(doc)
+        self.state.light_index = 0
+        self._sync_rig_vars()
+
+    def pin_rig(self):
+        self.pinned = self.doc
+        self.state.compare_rig_items = self._compare_rig_items()
+        self.state.compare_rig_b = "@pinned"
+        self.state.compare_mode = "rigs"
+        self._say(f"Pinned '{self.doc.name}' as rig B — edit this rig and compare.", "info")
+        self._changed()
+
+    # ----------------------------------------------------------------- 3-D
+    def update_3d(self):
+        from rigsim.ui.predict import _scene
+        from rigsim.ui.scene3d import draw, scene_parts, water_colour
+
+        try:
+            scene = _scene(self.rig, self.cond)
+        except ConfigError as exc:
+            self._refuse(None, exc)
+            return
+        rgb = water_colour(scene.water, self.cond.depth_m)
+        parts = scene_parts(scene, water_rgb=rgb, selected_light=int(self.state.light_index or 0))
+        self._drawn = draw(self.plotter, parts, background=rgb, previous=self._drawn)
+        self.state.water_rgb = "#%02x%02x%02x" % tuple(int(round(255 * c)) for c in rgb)
+        if not self._camera_set:
+            d = self.cond.distance_m
+            focal = np.array([0.0, 0.0, d * 0.4])
+            self.plotter.camera_position = [tuple(focal + np.array([-1.3, 0.9, -0.9]) * (0.9 + 0.8 * d)),
+                                            tuple(focal), (0, 1, 0)]
+            self._camera_set = True
+        self.ctrl.view_update()
+
+    def reset_camera(self):
+        self._camera_set = False
+        self.update_3d()
+
+    # ----------------------------------------------------------------- work
+    def _rig_key(self, doc: RigDoc) -> str:
+        return json.dumps(doc.data, sort_keys=True, default=str) + str(doc.base_dir)
+
+    async def _run(self, fn, *args, **kw):
+        loop = asyncio.get_running_loop()
+        return await loop.run_in_executor(self.pool, lambda: fn(*args, **kw))
+
+    async def _predict_cached(self, doc: RigDoc, rig, cond: Conditions, label: str) -> Prediction:
+        key = (self._rig_key(doc), cond, PREVIEW.name)
+        if key in self._cache_pred:
+            p = self._cache_pred[key]
+            return dataclasses.replace(p, label=label)
+        p = await self._run(predict, rig, cond, label=label)
+        self._cache_pred.put(key, p)
+        return p
+
+    async def _worker(self):
+        self._wake = asyncio.Event()
+        self._wake.set()
+        while True:
+            await self._wake.wait()
+            await asyncio.sleep(_DEBOUNCE_S)
+            self._wake.clear()
+            gen, doc, rig, cond = self.gen, self.doc, self.rig, self.cond
+            with self.state:
+                try:
+                    self.update_3d()
+                except Exception as exc:  # a drawing problem must not stop the app
+                    log.exception("3-D view update failed")
+                    self._say(f"3-D view not updated: {exc}", "warning")
+            try:
+                pred = await self._predict_cached(doc, rig, cond, label=rig.name)
+            except RigsimError as exc:
+                with self.state:
+                    self._refuse(None, exc)
+                    self.state.preview_busy = False
+                continue
+            except Exception as exc:
+                log.exception("preview failed")
+                with self.state:
+                    self._say(f"Preview failed: {type(exc).__name__}: {exc}", "error")
+                    self.state.preview_busy = False
+                continue
+            if gen != self.gen:
+                continue
+            with self.state:
+                self._publish(pred, converged=False)
+            if self.state.compare_auto:
+                await self._compare(gen)
+
+    def _publish(self, pred: Prediction, *, converged: bool):
+        s = self.state
+        s.preview_src = png_data_url(pred.srgb)
+        s.metric_rows = metric_rows(pred)
+        s.metric_values = {k: float(v) for k, v in pred.metrics.items()}
+        s.exposure_text = exposure_text(pred)
+        kind = "converged render" if converged else "preview"
+        s.preview_title = f"{kind}: {pred.label} · {self.cond.water} · {self.cond.distance_m:g} m · {self.cond.target}"
+        s.preview_info = f"{pred.engine} · {pred.width}×{pred.height} px · {pred.seconds:.2f} s"
+        s.preview_gen = self.gen
+        s.preview_busy = False
+
+    def _compare_jobs(self, cond: Conditions):
+        """(label, doc, rig, conditions) per comparison cell, and the curve series."""
+        s = self.state
+        mode = s.compare_mode
+        jobs = []
+        if mode == "waters":
+            waters = [w for w in (s.compare_waters or []) if w in self.waters][:MAX_COMPARE]
+            for w in waters:
+                c = cond.replace(water=w, water_overrides=cond.water_overrides if w == cond.water else ())
+                jobs.append((w, self.doc, self.rig, c))
+        elif mode == "distances":
+            try:
+                ds = [parse_number(x, "distances") for x in str(s.compare_distances).replace(";", ",").split(",")
+                      if x.strip()]
+            except ConfigError as exc:
+                raise ConfigError(exc.message, field="compare distances", allowed="numbers in m, e.g. 0.75, 1.5, 3")
+            for d in ds[:MAX_COMPARE]:
+                if not 0 < d <= 30:
+                    raise ConfigError(f"out of range: {d:g} m", field="compare distances", allowed="0 … 30 m")
+                jobs.append((f"{d:g} m", self.doc, self.rig, cond.replace(distance_m=d)))
+        else:
+            jobs.append((f"A: {self.doc.name}", self.doc, self.rig, cond))
+            b = s.compare_rig_b
+            if b == "@pinned" and self.pinned is not None:
+                docb = self.pinned
+            elif b and "/" in str(b):
+                folder, name = str(b).split("/", 1)
+                path, text = self.sandbox.read_text(name, folder=folder)
+                docb = RigDoc.loads(text, source=path.name, base_dir=path.parent)
+            else:
+                raise ConfigError("choose rig B (a file, or pin this rig first)", field="rig B")
+            jobs.append((f"B: {docb.name}", docb, docb.rig(), cond))
+        return jobs
+
+    async def _compare(self, gen: int):
+        s = self.state
+        try:
+            jobs = self._compare_jobs(self.cond)
+        except ConfigError as exc:
+            with s:
+                s.compare_info = f"Refused: {exc}"
+                s.compare_cells = []
+            return
+        with s:
+            s.compare_busy = True
+            s.compare_info = "computing…"
+        cells = []
+        t0 = time.perf_counter()
+        for label, doc, rig, cond in jobs:
+            if gen != self.gen:
+                return
+            try:
+                p = await self._predict_cached(doc, rig, cond, label)
+            except RigsimError as exc:
+                cells.append({"title": label, "src": "", "rows": [], "exposure": "", "error": str(exc)})
+                continue
+            cells.append({"title": label, "src": png_data_url(p.srgb), "rows": metric_rows(p),
+                          "exposure": exposure_text(p), "error": ""})
+            if gen == self.gen:
+                with s:
+                    s.compare_cells = list(cells)
+        # contrast-versus-distance: one series per water / rig (one for "distances")
+        series_jobs = jobs if s.compare_mode != "distances" else [(self.cond.water, self.doc, self.rig, self.cond)]
+        series = [{"label": lab, "points": []} for lab, *_ in series_jobs]
+        for si, (label, doc, rig, cond) in enumerate(series_jobs):
+            for d in CURVE_DISTANCES_M:
+                if gen != self.gen:
+                    return
+                key = (self._rig_key(doc), cond.replace(distance_m=1.0, sensor="-", exposure="auto"), d)
+                if key not in self._cache_curve:
+                    try:
+                        pts = await self._run(contrast_curve, rig, cond, [d])
+                    except RigsimError:
+                        pts = []
+                    self._cache_curve.put(key, pts[0] if pts else None)
+                pt = self._cache_curve[key]
+                if pt is not None:
+                    series[si]["points"].append(pt)
+            if gen == self.gen:
+                with s:
+                    s.compare_plot = curve_svg(series, self.cond.distance_m)
+        if gen == self.gen:
+            with s:
+                s.compare_busy = False
+                s.compare_info = f"{len(cells)} images, {sum(len(x['points']) for x in series)} curve points · " \
+                                 f"{time.perf_counter() - t0:.1f} s"
+
+    def compare_now(self):
+        self.gen += 1
+        gen = self.gen
+        asyncio.ensure_future(self._compare(gen))
+
+    def render_converged(self):
+        if self.state.render_running:
+            return
+        self._render_task = asyncio.ensure_future(self._render())
+
+    def cancel_render(self):
+        self._cancel_render.set()
+
+    async def _render(self):
+        s = self.state
+        q = QUALITIES.get(s.render_quality) or list(QUALITIES.values())[0]
+        loop = asyncio.get_running_loop()
+        gen, rig, cond = self.gen, self.rig, self.cond
+        self._cancel_render.clear()
+        with s:
+            s.render_running, s.render_progress, s.render_message = True, 0, f"rendering {q.name}…"
+
+        def progress(frac, msg):
+            if self._cancel_render.is_set():
+                raise _Cancelled()
+            loop.call_soon_threadsafe(self._progress, frac, msg)
+
+        t0 = time.perf_counter()
+        try:
+            pred = await self._run(predict, rig, cond, quality=q, label=rig.name, progress=progress)
+        except _Cancelled:
+            with s:
+                s.render_running, s.render_message = False, "render cancelled (the setup changed or you cancelled)"
+            return
+        except RigsimError as exc:
+            with s:
+                s.render_running, s.render_message = False, f"Refused: {exc}"
+            return
+        except Exception as exc:
+            log.exception("render failed")
+            with s:
+                s.render_running, s.render_message = False, f"render failed: {type(exc).__name__}: {exc}"
+            return
+        with s:
+            s.render_running = False
+            s.render_progress = 100
+            if gen == self.gen:
+                self._publish(pred, converged=True)
+                s.render_message = f"converged render done in {time.perf_counter() - t0:.1f} s"
+            else:
+                s.render_message = "render finished for an older setup; discarded"
+
+    def _progress(self, frac, msg):
+        with self.state:
+            self.state.render_progress = int(round(100 * frac))
+            self.state.render_message = f"rendering: {msg} ({100 * frac:.0f}%)"
+
+    # ----------------------------------------------------------------- wiring
+    def _register(self):
+        s, c = self.state, self.ctrl
+        for var in LIGHT_VARS:
+            s.change(var)(lambda _v=var, **kw: self._on_light_var(_v, kw[_v]))
+        for var in CAMERA_VARS:
+            s.change(var)(lambda _v=var, **kw: self._on_camera_var(_v, kw[_v]))
+        s.change(*AIM_AT_VARS)(self._on_aim_at)
+        s.change("l_aim_mode")(lambda l_aim_mode, **_: self._on_mode("aim", l_aim_mode))
+        s.change("l_power_mode")(lambda l_power_mode, **_: self._on_mode("power", l_power_mode))
+        s.change(*COND_VARS)(self._on_cond)
+
+        @s.change("light_index")
+        def _light(**_):
+            self._sync_rig_vars()
+            self._changed()
+
+        @s.change("compare_mode", "compare_waters", "compare_distances", "compare_rig_b")
+        def _cmp(**_):
+            if self.state.compare_auto:
+                self.compare_now()
+
+        c.load_rig = self.load_rig
+        c.save_rig = self.save_rig
+        c.add_strobe = lambda: self.add_light("strobe")
+        c.add_video = lambda: self.add_light("video")
+        c.remove_light = self.remove_light
+        c.pin_rig = self.pin_rig
+        c.render_converged = self.render_converged
+        c.cancel_render = self.cancel_render
+        c.compare_now = self.compare_now
+        c.reset_camera = self.reset_camera
+        c.on_server_ready.add(lambda **_: asyncio.ensure_future(self._worker()))
+
+    # ----------------------------------------------------------------- layout
+    def _layout(self):
+        from rigsim.ui import layout
+
+        layout.build(self)
+
+
+def create_app(*, rigs_dir: str | Path | None = None, workdir: str | Path | None = None,
+               rig: str | Path | None = None, name: str = "rigsim", view: str = "server") -> RigDesigner:
+    """A :class:`RigDesigner` on a fresh trame server (not started)."""
+    from trame.app import get_server
+
+    folders: dict[str, Path] = {"rigs": Path(rigs_dir) if rigs_dir else default_rigs_dir()}
+    if workdir:
+        w = Path(workdir).expanduser()
+        if not w.is_dir():
+            raise ConfigError("the work folder does not exist", file=w, field="--workdir",
+                              allowed="an existing folder")
+        folders["work"] = w
+    server = get_server(name, client_type="vue3")
+    rig_path = None
+    if rig:
+        rig_path = FileSandbox(folders).resolve(str(rig), folder="work" if "work" in folders else "rigs")
+    return RigDesigner(server, FileSandbox(folders), rig_path=rig_path, view=view)
+
+
+def main(*, host: str = "127.0.0.1", port: int = 8080, workdir: str | None = None, rigs_dir: str | None = None,
+         rig: str | None = None, open_browser: bool = False, view: str = "server") -> None:
+    """Start the rig designer and serve it until interrupted."""
+    app = create_app(rigs_dir=rigs_dir, workdir=workdir, rig=rig, view=view)
+    print(f"rigsim rig designer: http://{host}:{port}/  (folders: {app.sandbox.describe()})", flush=True)
+    app.server.start(host=host, port=port, open_browser=open_browser, show_connection_info=False,
+                     disable_logging=True)

@@ -1,0 +1,368 @@
+"""Predicted images and their numbers for the rig designer.
+
+One call, :func:`predict`, takes a :class:`~rigsim.scene.types.Rig` and the
+:class:`Conditions` (water, distance, target, sensor, exposure) and returns a
+:class:`Prediction`: the developed sRGB image and the same numbers a study
+reports (:mod:`rigsim.study.case`), computed with that module's functions:
+
+``contrast_radiance``
+    Michelson contrast of the target in the noise-free radiance (photopic), e.g.
+    the ColorChecker's white against its black patch.
+``contrast_image``
+    The same from the developed image of the chosen sensor.
+``snr_white``
+    EMVA 1288 temporal SNR of the sensor at the white patch's mean signal.
+``delta_e_mean``
+    Mean ΔE2000 of the 24 chart patches against the chart under D65 in air.
+``backscatter_share``
+    Share of the target pixels' light that the water scattered back without
+    reaching the target (ground-truth split).
+
+Engines: the fast preview model :func:`rigsim.preview.render_preview` when it is
+installed, otherwise a small, few-sample Monte Carlo render
+(:func:`rigsim.render.render`); :func:`preview_engine` is the one place that
+chooses.  The converged image is a full render with progress.
+
+No physics lives here: water, scene, renderer, sensor and metrics come from
+their packages.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import logging
+import math
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from rigsim.errors import ConfigError
+from rigsim.scene.types import Rig
+
+log = logging.getLogger(__name__)
+
+__all__ = ["Conditions", "Prediction", "Quality", "QUALITIES", "PREVIEW", "CURVE", "predict",
+           "contrast_curve", "measure", "preview_engine", "image_size", "load_water_cached", "TARGETS",
+           "WHITE_BALANCES", "METRIC_LABELS"]
+
+#: Band centres for previews (nm): 20 nm bands covering 400–700 nm.
+PREVIEW_WAVELENGTHS_NM = tuple(np.arange(410.0, 700.0, 20.0).tolist())
+#: Band centres for converged renders (nm): 10 nm bands covering 400–700 nm.
+RENDER_WAVELENGTHS_NM = tuple(np.arange(405.0, 700.0, 10.0).tolist())
+#: Ground-truth layers every prediction needs (masks and the backscatter split).
+LAYERS = ("range_m", "object_id", "backscatter")
+#: Targets the designer offers.
+TARGETS = ("colorchecker", "black-disk", "white-disk", "slanted-edge")
+#: White balance choices: ``auto`` = the chart's neutral 5 patch (a grey card), else grey world.
+WHITE_BALANCES = ("auto", "grayworld", "white_patch")
+
+#: Label and unit of each metric, for the UI and reports.
+METRIC_LABELS = {
+    "contrast_radiance": ("contrast (scene)", ""),
+    "contrast_image": ("contrast (image)", ""),
+    "snr_white": ("SNR white", "dB"),
+    "delta_e_mean": ("mean ΔE2000", ""),
+    "backscatter_share": ("backscatter", "%"),
+}
+
+
+@dataclass(frozen=True)
+class Quality:
+    """Image size and paths per pixel (``spp=None``: the preview engine decides)."""
+
+    name: str
+    width: int
+    spp: int | None
+    wavelengths_nm: tuple[float, ...] = PREVIEW_WAVELENGTHS_NM
+    fallback_spp: int = 4  # paths per pixel when the preview model is missing and a render stands in
+
+
+#: The live preview.
+PREVIEW = Quality("preview", 144, None)
+#: Points of the contrast-versus-distance curve (metrics only, no sensor).
+CURVE = Quality("curve", 96, None, fallback_spp=16)
+#: Converged renders offered by the "Render" button.
+QUALITIES = {
+    "draft 240 px, 16 spp": Quality("draft", 240, 16, RENDER_WAVELENGTHS_NM),
+    "good 360 px, 64 spp": Quality("good", 360, 64, RENDER_WAVELENGTHS_NM),
+    "high 720 px, 128 spp": Quality("high", 720, 128, RENDER_WAVELENGTHS_NM),
+}
+
+
+@dataclass(frozen=True)
+class Conditions:
+    """Everything but the rig that a prediction depends on.
+
+    Attributes
+    ----------
+    water
+        Preset name (``coastal``, ``jerlov-IB`` …) or a water TOML path.
+    water_overrides
+        ``((key, value), …)`` constituent overrides (``chl_mg_per_m3``, ``cdom_a440_per_m``,
+        ``small_particles_ppm``, ``large_particles_ppm``) — constituent presets only.
+    distance_m
+        Entrance pupil → target (m).
+    target
+        One of :data:`TARGETS`.
+    target_fill
+        Scale the target to this fraction of the frame width (so that its patches are
+        resolved at any distance, as studies do with ``target_fill``), or None for its
+        real size (ColorChecker 0.279 m).
+    sensor
+        Sensor name (``sensors/*.toml``).
+    exposure
+        ``"auto"`` (spot meter on the target; TTL for strobes) or ``"manual"``.
+    shutter_s, iso, flash_scale
+        Manual exposure: shutter (s), ISO and the strobes' output (1 = the rig's power).
+    white_balance
+        One of :data:`WHITE_BALANCES`.
+    depth_m
+        Camera depth (m): tints the water in the 3-D view (the renderer has no daylight yet).
+    """
+
+    water: str = "coastal"
+    water_overrides: tuple[tuple[str, float], ...] = ()
+    distance_m: float = 1.5
+    target: str = "colorchecker"
+    target_fill: float | None = 0.5
+    sensor: str = "sony_ilce-7rm2"
+    exposure: str = "auto"
+    shutter_s: float = 1 / 125
+    iso: float = 100.0
+    flash_scale: float = 1.0
+    white_balance: str = "auto"
+    depth_m: float = 10.0
+
+    def replace(self, **kw) -> "Conditions":
+        return dataclasses.replace(self, **kw)
+
+
+@dataclass(frozen=True, eq=False)
+class Prediction:
+    """A predicted photograph and its numbers."""
+
+    srgb: np.ndarray | None             # (rows, cols, 3) uint8, None for curve points
+    metrics: dict[str, float]
+    exposure: dict
+    engine: str
+    seconds: float
+    width: int
+    height: int
+    spp: int | None
+    label: str = ""
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+
+# ----------------------------------------------------------------------------- engines
+
+def preview_engine(quality: Quality = PREVIEW) -> tuple[str, Callable]:
+    """``(name, render_fn)`` of the fast preview: the preview model if installed, else a small render.
+
+    ``render_fn(scene, width, height, wavelengths_nm, progress)`` → SpectralImage.
+    """
+    try:
+        from rigsim.preview import render_preview  # the semi-analytic model (same interface)
+    except ImportError:
+        render_preview = None
+    if render_preview is not None:
+        def fn(scene, width, height, wavelengths_nm, progress=None):
+            return render_preview(scene, width=width, height=height, wavelengths_nm=wavelengths_nm, layers=LAYERS)
+        return "preview model", fn
+
+    from rigsim.render import render
+
+    def fn(scene, width, height, wavelengths_nm, progress=None):
+        return render(scene, width=width, height=height, spp=quality.fallback_spp, seed=0,
+                      wavelengths_nm=wavelengths_nm, layers=LAYERS, progress=progress)
+    return f"Monte Carlo {quality.fallback_spp} spp (no preview model)", fn
+
+
+def _full_render(spp: int, seed: int):
+    from rigsim.render import render
+
+    def fn(scene, width, height, wavelengths_nm, progress=None):
+        return render(scene, width=width, height=height, spp=spp, seed=seed, wavelengths_nm=wavelengths_nm,
+                      layers=LAYERS, progress=progress)
+    return f"Monte Carlo {spp} spp", fn
+
+
+# ----------------------------------------------------------------------------- inputs
+
+@functools.lru_cache(maxsize=32)
+def load_water_cached(spec: str, overrides: tuple[tuple[str, float], ...] = ()):
+    """:func:`rigsim.config.water.load_water`, cached (waters are immutable)."""
+    from rigsim.config.water import load_water
+
+    return load_water(spec, **dict(overrides))
+
+
+def image_size(rig: Rig, width: int) -> tuple[int, int]:
+    """(width, height) with the sensor's aspect ratio."""
+    cam = rig.camera
+    h = max(8, int(round(width * cam.sensor_height_mm / cam.sensor_width_mm)))
+    return int(width), h
+
+
+def _scene(rig: Rig, cond: Conditions, distance_m: float | None = None, fill: float | None = None):
+    from rigsim.render.camera import fov_water_deg
+    from rigsim.scene.build import build_scene
+
+    if cond.target not in TARGETS:
+        raise ConfigError(f"unknown target {cond.target!r}", field="target", allowed=", ".join(TARGETS))
+    d = cond.distance_m if distance_m is None else distance_m
+    if not (isinstance(d, (int, float)) and math.isfinite(d) and d > 0):
+        raise ConfigError(f"distance must be > 0 m, got {d}", field="distance_m", allowed="> 0 m")
+    fill = cond.target_fill if fill is None else fill
+    size = None
+    if fill is not None:
+        if not 0 < fill <= 1.5:
+            raise ConfigError(f"target fill must be within (0, 1.5], got {fill}", field="target_fill")
+        size = fill * 2 * d * math.tan(math.radians(fov_water_deg(rig.camera)) / 2)
+    water = load_water_cached(cond.water, tuple(cond.water_overrides))
+    return build_scene(rig, water, cond.target, d, size_m=size)
+
+
+# ----------------------------------------------------------------------------- metrics
+
+def measure(si, target_kind: str, *, cap=None, sensor=None, exposure=None) -> tuple[dict[str, float], dict]:
+    """The study's numbers for one image (see the module docstring).
+
+    Parameters
+    ----------
+    si
+        SpectralImage with ``object_id`` (and ``backscatter``/``flash_backscatter``).
+    target_kind
+        The target's kind (selects the signal/reference regions).
+    cap, sensor, exposure
+        The capture and what made it; without them only the sensor-independent numbers.
+
+    Returns
+    -------
+    metrics, masks
+    """
+    from rigsim.metrics.contrast import backscatter_share, contrast_michelson, luminance
+    from rigsim.study.case import _chart_delta_e, photopic_luminance, target_masks
+
+    wl, bw = np.asarray(si.wavelength_nm), np.asarray(si.bandwidth_nm)
+    masks = target_masks(np.asarray(si.layers["object_id"]), si.meta.get("object_ids", {}), target_kind)
+    out: dict[str, float] = {}
+    h_total = si.radiant_exposure(1.0)
+    lum = photopic_luminance(h_total, wl, bw)
+    if "signal" in masks and "reference" in masks:
+        out["contrast_radiance"] = float(contrast_michelson(lum[masks["signal"]].mean(),
+                                                            lum[masks["reference"]].mean()))
+    if ("backscatter" in si.layers or "flash_backscatter" in si.layers) and "target" in masks:
+        out["backscatter_share"] = float(backscatter_share(si.radiant_exposure(1.0, "backscatter"), h_total,
+                                                           masks["target"]))
+    if cap is None:
+        return out, masks
+    lin = np.asarray(cap.linear_rgb, float)
+    y = luminance(lin)
+    if "signal" in masks and "reference" in masks and y.shape == lum.shape:
+        out["contrast_image"] = float(contrast_michelson(y[masks["signal"]].mean(), y[masks["reference"]].mean()))
+        region = masks["signal"] if target_kind in ("colorchecker", "slanted-edge") else masks["reference"]
+        if region.sum() >= 4 and sensor is not None and exposure is not None:
+            from rigsim.sensor.noise import snr_emva1288
+            from rigsim.sensor.pipeline import mean_electrons_rgb
+
+            mu_g = float(mean_electrons_rgb(si, sensor, exposure)[..., 1][region].mean())
+            out["snr_white"] = float(snr_emva1288(mu_g, sensor, iso=exposure.iso,
+                                                  exposure_time_s=exposure.exposure_time_s))
+    if target_kind == "colorchecker" and y.shape == lum.shape:
+        out["delta_e_mean"] = float(_chart_delta_e(lin, masks))
+    return {k: v for k, v in out.items() if v is not None and math.isfinite(v)}, masks
+
+
+def _develop(si, rig: Rig, cond: Conditions, masks: dict, seed: int):
+    from rigsim.sensor import load_sensor
+    from rigsim.sensor.optics import Lens
+    from rigsim.sensor.pipeline import DevelopOptions, Exposure, auto_exposure, capture
+
+    sensor = load_sensor(cond.sensor)
+    lens = Lens(f_number=rig.camera.f_number)
+    if cond.exposure == "auto":
+        meter = masks.get("target") if cond.target == "colorchecker" else None
+        ex = auto_exposure(si, sensor, lens=lens, mask=meter)
+    elif cond.exposure == "manual":
+        ex = Exposure(float(cond.shutter_s), float(cond.iso), lens, flash_scale=float(cond.flash_scale))
+    else:
+        raise ConfigError(f"unknown exposure mode {cond.exposure!r}", field="exposure", allowed="auto, manual")
+    wb, wb_kw = cond.white_balance, {}
+    if wb == "auto":
+        grey = next((k for k in masks if k.startswith("patch:neutral 5")), None)
+        wb, wb_kw = ("chart", {"mask": masks[grey]}) if grey and masks[grey].sum() >= 4 else ("grayworld", {})
+    elif wb not in WHITE_BALANCES:
+        raise ConfigError(f"unknown white balance {wb!r}", field="white_balance", allowed=", ".join(WHITE_BALANCES))
+    cap = capture(si, sensor, ex, seed=seed, develop=DevelopOptions(white_balance=wb, wb_kwargs=wb_kw))
+    has_flash = "flash" in si.layers
+    exposure = {"shutter_s": ex.exposure_time_s, "iso": ex.iso, "f_number": lens.f_number,
+                "flash_scale": ex.flash_scale if has_flash else None, "white_balance": wb,
+                "sensor": sensor.name, "saturated_fraction": float(np.mean(cap.raw >= cap.white_level))}
+    return cap, sensor, ex, exposure
+
+
+# ----------------------------------------------------------------------------- public
+
+def predict(rig: Rig, cond: Conditions, *, quality: Quality = PREVIEW, seed: int = 0, label: str = "",
+            progress: Callable[[float, str], None] | None = None) -> Prediction:
+    """Render (preview or converged), photograph with the sensor, measure.
+
+    Raises
+    ------
+    ConfigError
+        An impossible setup (target inside the port, unknown water or sensor …), one line.
+    """
+    t0 = time.perf_counter()
+    scene = _scene(rig, cond)
+    w, h = image_size(rig, quality.width)
+    engine, fn = preview_engine(quality) if quality.spp is None else _full_render(quality.spp, seed)
+    si = fn(scene, w, h, quality.wavelengths_nm, progress)
+    metrics, masks = measure(si, cond.target)
+    cap, sensor, ex, exposure = _develop(si, rig, cond, masks, seed)
+    metrics, _ = measure(si, cond.target, cap=cap, sensor=sensor, exposure=ex)
+    notes = []
+    if exposure["saturated_fraction"] > 0.01:
+        notes.append(f"{100 * exposure['saturated_fraction']:.0f}% of pixels clipped")
+    if not any(k in masks for k in ("signal",)):
+        notes.append("target too small in the frame to measure contrast")
+    return Prediction(srgb=np.asarray(cap.srgb), metrics=metrics, exposure=exposure, engine=engine,
+                      seconds=time.perf_counter() - t0, width=w, height=h, spp=quality.spp, label=label,
+                      notes=tuple(notes))
+
+
+def contrast_curve(rig: Rig, cond: Conditions, distances_m: Sequence[float], *,
+                   should_stop: Callable[[], bool] | None = None) -> list[dict]:
+    """Sensor-independent contrast and backscatter share at each distance (preview engine).
+
+    The target is scaled to ``cond.target_fill`` of the frame (0.5 if the conditions
+    use its real size) so that its patches are resolved at every distance.  Distances
+    the target cannot be at (inside the port) are skipped.
+
+    Returns
+    -------
+    list of ``{"distance_m", "contrast_radiance", "backscatter_share"}``
+    """
+    from rigsim.scene.build import port_reach_m
+
+    engine, fn = preview_engine(CURVE)
+    fill = cond.target_fill if cond.target_fill is not None else 0.5
+    w, h = image_size(rig, CURVE.width)
+    out = []
+    for d in distances_m:
+        if should_stop is not None and should_stop():
+            break
+        if d <= port_reach_m(rig) + 0.02:
+            continue
+        si = fn(_scene(rig, cond, d, fill), w, h, CURVE.wavelengths_nm, None)
+        m, _ = measure(si, cond.target)
+        out.append({"distance_m": float(d), "contrast_radiance": m.get("contrast_radiance"),
+                    "backscatter_share": m.get("backscatter_share")})
+    return out
+
+
+def snr_db(snr: float) -> float:
+    """SNR as 20 log10 (dB)."""
+    return 20 * math.log10(snr) if snr and snr > 0 else float("nan")

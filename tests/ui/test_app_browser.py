@@ -1,0 +1,167 @@
+"""The rig designer in a real browser: start the app, load the page in headless Chromium, edit, compare.
+
+Checks what a diver sees: changing the water preset and a strobe's angle changes the
+predicted image and its numbers; an invalid edit is refused with a message (no crash);
+saving outside ``rigs/`` and the work folder is refused; saving inside it writes a rig
+file that the CLI's loader reads back.  A screenshot is kept under
+``artifacts/ui/rig_designer.png`` (path printed).
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import socket
+import subprocess
+import sys
+import time
+import urllib.request
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+CHROMIUM = os.environ.get("RIGSIM_CHROMIUM", "/usr/bin/chromium")
+ARGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking"]
+
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+@pytest.fixture(scope="module")
+def server(tmp_path_factory):
+    if not (Path(CHROMIUM).is_file() or shutil.which(CHROMIUM)):
+        pytest.skip(f"no Chromium at {CHROMIUM} (set RIGSIM_CHROMIUM)")
+    pytest.importorskip("playwright.sync_api", reason="playwright (pip) is needed for the browser test")
+    work = tmp_path_factory.mktemp("work")
+    port = _free_port()
+    log = open(work.parent / "app.log", "w")
+    env = dict(os.environ, PYTHONUNBUFFERED="1")
+    proc = subprocess.Popen([sys.executable, str(ROOT / "apps" / "rig_designer.py"), "--port", str(port),
+                             "--workdir", str(work)], cwd=ROOT, stdout=log, stderr=subprocess.STDOUT, env=env)
+    url = f"http://127.0.0.1:{port}/"
+    deadline = time.time() + 60
+    while True:
+        try:
+            urllib.request.urlopen(url, timeout=2)
+            break
+        except Exception:
+            if proc.poll() is not None or time.time() > deadline:
+                proc.kill()
+                log.close()
+                raise AssertionError("the app did not start:\n" + (work.parent / "app.log").read_text()[-3000:])
+            time.sleep(0.5)
+    yield {"url": url, "work": work, "proc": proc}
+    proc.terminate()
+    try:
+        proc.wait(timeout=10)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+    log.close()
+
+
+def _state(page) -> dict:
+    metrics = {}
+    for key in ("contrast_radiance", "contrast_image", "backscatter_share", "snr_white", "delta_e_mean"):
+        loc = page.locator(f"#m-{key}")
+        metrics[key] = loc.text_content() if loc.count() else None
+    return {"info": page.locator("#preview-info").text_content(),
+            "src": page.locator("#preview-img").get_attribute("src"), "metrics": metrics}
+
+
+def _wait_new_preview(page, before: dict, timeout_s: float = 40.0) -> dict:
+    """Wait until the preview shows a newer generation, and nothing is pending."""
+    deadline = time.time() + timeout_s
+    while time.time() < deadline:
+        now = _state(page)
+        busy = page.locator(".v-card-title .v-progress-circular").count() > 0
+        if now["info"] != before["info"] and now["src"] and not busy:
+            return now
+        time.sleep(0.3)
+    raise AssertionError(f"the preview did not update: {before['info']!r}")
+
+
+def _choose(page, select_id: str, option: str):
+    page.locator(f"#{select_id}").click(force=True)
+    page.get_by_role("option", name=option, exact=True).first.click()
+    page.keyboard.press("Escape")
+
+
+def test_page_edit_compare_and_files(server):
+    from playwright.sync_api import sync_playwright
+
+    t0 = time.time()
+    with sync_playwright() as p:
+        browser = p.chromium.launch(executable_path=CHROMIUM, args=ARGS)
+        page = browser.new_page(viewport={"width": 1600, "height": 1200})
+        errors = []
+        page.on("pageerror", lambda e: errors.append(str(e)))
+        page.goto(server["url"])
+        page.wait_for_selector("#preview-img", timeout=60_000)
+        first = _wait_new_preview(page, {"info": ""})
+        assert first["metrics"]["contrast_radiance"] not in (None, "–")
+
+        # water preset: coastal → clear
+        _choose(page, "water-sel", "clear")
+        clear = _wait_new_preview(page, first)
+        assert clear["src"] != first["src"], "the predicted image did not change with the water"
+        assert clear["metrics"]["contrast_radiance"] != first["metrics"]["contrast_radiance"]
+        assert clear["metrics"]["backscatter_share"] != first["metrics"]["backscatter_share"]
+
+        # turn the left strobe 35° outwards (yaw −35°: towards the image's left)
+        page.locator("#l_yaw_deg").fill("-35")
+        page.locator("#l_yaw_deg").press("Tab")
+        turned = _wait_new_preview(page, clear)
+        assert turned["src"] != clear["src"], "the predicted image did not change with the strobe angle"
+        assert turned["metrics"] != clear["metrics"]
+
+        # an impossible edit is refused with a message, and the app keeps working
+        page.locator("#l_arm_length_m").fill("0.05")
+        page.locator("#l_arm_length_m").press("Tab")
+        page.wait_for_selector("#message", timeout=10_000)
+        msg = page.locator("#message").text_content()
+        assert "Refused" in msg and "housing" in msg, msg
+        page.locator("#l_arm_length_m").fill("0.6")
+        page.locator("#l_arm_length_m").press("Tab")
+        wider = _wait_new_preview(page, turned)
+        assert wider["src"] != turned["src"]
+
+        # the comparison panel fills with images for both waters and the plot
+        page.wait_for_selector("#compare-plot", timeout=60_000)
+        shot = ROOT / "artifacts" / "ui" / "rig_designer.png"
+        shot.parent.mkdir(parents=True, exist_ok=True)
+        page.screenshot(path=str(shot), full_page=True)
+        print(f"\nscreenshot: {shot}")
+        print(f"metrics coastal: {first['metrics']}\nmetrics clear: {clear['metrics']}\n"
+              f"metrics turned: {turned['metrics']}\nmetrics arm 0.6 m: {wider['metrics']}")
+
+        # files: refused outside the sandbox, written inside
+        page.get_by_text("Rig file", exact=True).click()
+        for bad in ("../../etc/x.toml", "/tmp/x.toml", "../escape.toml"):
+            page.locator("#save-name").fill(bad)
+            page.locator("#save-btn").click()
+            page.wait_for_function(
+                "(b) => { const e = document.querySelector('#file-message'); "
+                "return e && e.textContent.includes('Refused') && e.textContent.includes(b); }",
+                arg=bad, timeout=10_000)
+        assert not Path("/tmp/x.toml").exists() or Path("/tmp/x.toml").stat().st_mtime < t0
+        page.locator("#save-name").fill("my-rig.toml")
+        page.locator("#save-btn").click()
+        page.wait_for_function("() => (document.querySelector('#file-message')||{}).textContent?.includes('Saved')",
+                               timeout=10_000)
+        browser.close()
+    assert not errors, errors
+    saved = server["work"] / "my-rig.toml"
+    assert saved.is_file()
+    from rigsim.config.rig import load_rig
+
+    rig = load_rig(saved)
+    left = rig.lights[0]
+    assert abs(left.position_m[0] - 0.6 * abs(__import__("math").cos(__import__("math").radians(165)))) < 0.01
+    assert left.aim[0] > 0.5  # turned towards the image's left = world +x
+    assert server["proc"].poll() is None, "the server died"
+    print(f"browser test took {time.time() - t0:.1f} s")
