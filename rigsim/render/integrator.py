@@ -107,6 +107,10 @@ PLUGIN_NAME = "rigsim_vol"
 INTEGRATORS = {"rigsim": PLUGIN_NAME, "volpath": "volpath"}
 #: Equiangular samples stop at this optical depth of the least attenuated wavelength.
 T_CAP_OPTICAL_DEPTH = 30.0
+#: Share of equiangular samples whose angle is drawn from the phase function (the rest: uniform).
+DEFAULT_PHASE_WEIGHTED = 0.5
+#: Share of scattered directions drawn around the lights (density ∝ 1/angle), the rest from the phase function.
+DEFAULT_LIGHT_DIRECTED = 0.4
 #: Smallest distance of a light from a ray line used by equiangular sampling (m).
 _D_MIN = 1e-6
 
@@ -136,7 +140,7 @@ def with_integrator(ms, integrator):
 
 
 # ---------------------------------------------------------------------------------------
-# Equiangular sampling (Kulla & Fajardo 2012)
+# Equiangular sampling (Kulla & Fajardo 2012), optionally phase-weighted
 # ---------------------------------------------------------------------------------------
 def _equiangular_frame(o, d, p_light, t_max):
     delta = dr.dot(p_light - o, d)
@@ -184,6 +188,148 @@ def equiangular_pdf(o, d, p_light, t_max, t):
     return dr.select((dth > 0) & (t >= 0) & (t <= t_max), pdf, 0.0)
 
 
+class PhaseAngleTable:
+    """The water phase function as a density in the scattering angle ψ (per radian).
+
+    Along a ray passing a point light at distance ``D``, the equiangular angle θ
+    (``t = Δ + D tan θ``) and the single-scattering angle ψ toward the ray's origin
+    are related by ``ψ = θ + π/2``; the light scattered at ``x(t)`` is
+    ``∝ p(ψ)/r²`` and ``dt = r²/D dθ``, so in θ the integrand is the phase function
+    itself, ``p(θ + π/2)/D`` (times transmittance and the beam pattern).  Sampling θ
+    ∝ ``p̄(ψ)``, the phase function averaged over the path's wavelengths, removes the
+    forward peak's variance (double scattering near a strobe: the fireflies left by
+    plain equiangular sampling).
+
+    Built from a :class:`~rigsim.render.phase_plugin.WaterPhaseFunction`: the
+    plugin's realised per-cell densities (constant in each cell of its ψ grid), so
+    ``p̄`` is exactly the plugin's ``eval`` averaged over wavelengths (without its
+    defensive uniform share).
+    """
+
+    def __init__(self, phase):
+        import numpy as np
+
+        t = phase.tables
+        psi = np.asarray(t.grid.psi_edges, np.float64).copy()
+        psi[0], psi[-1] = 0.0, np.pi
+        v = 2.0 * np.sin(psi / 2.0) ** 2
+        v[0], v[-1] = 0.0, 2.0
+        omega = 2.0 * np.pi * np.diff(v)
+        K = phase.K
+        dens = np.asarray(phase.realised_masses, np.float64)[:K] / omega[None, :]  # (K, n), 1/sr
+        cdf = np.concatenate([np.zeros((K, 1)), np.cumsum(dens * np.diff(psi)[None, :], axis=1)], axis=1)
+        self.phase = phase
+        self.K, self.n = K, dens.shape[1]
+        self.psi_lo = mi.Float(psi[:-1].astype(np.float32))
+        self.dens = mi.Float(dens.astype(np.float32).ravel())
+        self.cdf = mi.Float(cdf.astype(np.float32).ravel())
+
+    def weights(self, wavelengths):
+        """w̄_k: component weights averaged over the path's wavelengths."""
+        return self.phase._weights(wavelengths)[1]
+
+    def _cdf_at(self, k, psi):
+        j = self.phase._cell_of(psi)
+        c = dr.gather(mi.Float, self.cdf, k * (self.n + 1) + j)
+        p = dr.gather(mi.Float, self.dens, k * self.n + j)
+        return c + p * (psi - dr.gather(mi.Float, self.psi_lo, j))
+
+    def masses(self, wbar, psi_a, psi_b):
+        """(Z_k = w̄_k ∫_{ψa}^{ψb} p_k dψ for each k, Z = Σ Z_k)."""
+        zk = [dr.maximum(wbar[k] * (self._cdf_at(k, psi_b) - self._cdf_at(k, psi_a)), 0.0) for k in range(self.K)]
+        z = zk[0]
+        for k in range(1, self.K):
+            z = z + zk[k]
+        return zk, z
+
+    def density(self, wbar, psi):
+        """p̄(ψ) = Σ_k w̄_k p_k(ψ) (1/sr, as a density per radian once divided by Z)."""
+        j = self.phase._cell_of(psi)
+        out = mi.Float(0.0)
+        for k in range(self.K):
+            out = dr.fma(wbar[k], dr.gather(mi.Float, self.dens, k * self.n + j), out)
+        return out
+
+    def sample(self, wbar, psi_a, psi_b, zk, z, u1, u2):
+        """ψ ∈ [ψa, ψb] with density p̄(ψ)/Z."""
+        k = mi.UInt32(self.K - 1)
+        acc = mi.Float(0.0)
+        target = u1 * z
+        for c in range(self.K - 1):
+            acc = acc + zk[c]
+            k = dr.select((target < acc) & (k == self.K - 1), mi.UInt32(c), k)
+        # inverse CDF inside component k, restricted to [ψa, ψb]
+        ca = self._cdf_at(k, psi_a)
+        cb = self._cdf_at(k, psi_b)
+        c = dr.fma(u2, cb - ca, ca)
+        base = k * (self.n + 1)
+        j = dr.binary_search(0, self.n, lambda i: dr.gather(mi.Float, self.cdf, base + i) <= c)
+        j = mi.UInt32(dr.clip(mi.Int32(j) - 1, 0, self.n - 1))
+        c0 = dr.gather(mi.Float, self.cdf, base + j)
+        p = dr.gather(mi.Float, self.dens, k * self.n + j)
+        psi = dr.gather(mi.Float, self.psi_lo, j) + dr.select(p > 0, (c - c0) / p, 0.0)
+        return dr.clip(psi, psi_a, psi_b)
+
+
+def _cone_sample(axis, u):
+    """Direction at angle α = π u.x from ``axis``, azimuth 2π u.y: density 1/(2π² sin α) ∝ 1/α near the axis."""
+    a = dr.pi * u.x
+    sa, ca = dr.sincos(a)
+    sp, cp = dr.sincos(2.0 * dr.pi * u.y)
+    return mi.Frame3f(axis).to_world(mi.Vector3f(sa * cp, sa * sp, ca))
+
+
+def _cone_pdf(axis, w):
+    """Solid-angle density of :func:`_cone_sample` at unit direction ``w``."""
+    sa = dr.norm(dr.cross(axis, w))
+    return dr.select(sa > 0, 1.0 / (2.0 * dr.pi * dr.pi * sa), 0.0)
+
+
+class _Segment:
+    """Equiangular geometry of one ray segment and one light, with the θ density
+
+    ``q(θ) = (1 − α)/(θ_b − θ_a) + α p̄(θ + π/2)/Z`` (α = 0 without a phase table);
+    the distance density is ``q(θ) cos² θ / D``.
+    """
+
+    def __init__(self, o, d, p_light, t_max, table, wbar, alpha):
+        self.o, self.d = o, d
+        self.delta, self.D, self.th_a, self.th_b = _equiangular_frame(o, d, p_light, t_max)
+        self.dth = self.th_b - self.th_a
+        self.t_max = t_max
+        self.table, self.wbar, self.alpha = table, wbar, alpha
+        if table is not None:
+            self.psi_a = self.th_a + dr.pi / 2
+            self.psi_b = self.th_b + dr.pi / 2
+            self.zk, self.z = table.masses(wbar, self.psi_a, self.psi_b)
+
+    def _q(self, th):
+        q = dr.select(self.dth > 0, 1.0 / self.dth, 0.0)
+        if self.table is None:
+            return q
+        ph = dr.select(self.z > 0, self.table.density(self.wbar, th + dr.pi / 2) / self.z, 0.0)
+        a = dr.select(self.z > 0, self.alpha, 0.0)
+        return (1.0 - a) * q + a * ph
+
+    def sample(self, u_sel, u1, u2):
+        th = dr.fma(u_sel, self.dth, self.th_a)  # uniform in θ
+        if self.table is not None:
+            use_phase = (u_sel < self.alpha) & (self.z > 0)
+            psi = self.table.sample(self.wbar, self.psi_a, self.psi_b, self.zk, self.z, u1, u2)
+            th = dr.select(use_phase, psi - dr.pi / 2, dr.fma(u1, self.dth, self.th_a))
+        th = dr.clip(th, self.th_a, self.th_b)
+        s, c = dr.sincos(th)
+        t = dr.clip(self.delta + self.D * s / c, 0.0, self.t_max)
+        pdf = self._q(th) * c * c / self.D
+        return t, dr.select(self.dth > 0, pdf, 0.0)
+
+    def pdf(self, t):
+        x = t - self.delta
+        th = dr.atan2(x, self.D)
+        pdf = self._q(th) * self.D / (self.D * self.D + x * x)
+        return dr.select((self.dth > 0) & (t >= 0) & (t <= self.t_max), pdf, 0.0)
+
+
 # ---------------------------------------------------------------------------------------
 # The integrator
 # ---------------------------------------------------------------------------------------
@@ -218,7 +364,28 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
         if self.mis not in ("power", "balance"):
             raise ConfigError(f"mis must be power or balance, got {self.mis!r}", field="integrator.mis")
         self.equiangular = bool(props.get("equiangular", True))
+        self.alpha = float(props.get("phase_weighted", DEFAULT_PHASE_WEIGHTED))
+        if not 0.0 <= self.alpha < 1.0:
+            raise ConfigError(f"phase_weighted must be in [0, 1), got {self.alpha}",
+                              field="integrator.phase_weighted")
+        self.cone = float(props.get("light_directed", DEFAULT_LIGHT_DIRECTED))
+        if not 0.0 <= self.cone < 1.0:
+            raise ConfigError(f"light_directed must be in [0, 1), got {self.cone}",
+                              field="integrator.light_directed")
         self._checked: dict[int, tuple] = {}
+        self._tables: dict[int, tuple] = {}
+
+    def _phase_table(self, phase):
+        """The ψ table of a rigsim water phase function (None for other phase functions)."""
+        if not all(hasattr(phase, a) for a in ("realised_masses", "tables", "_weights", "_cell_of")):
+            return None
+        hit = self._tables.get(id(phase))
+        if hit is None or hit[0] is not phase:
+            if len(self._tables) > 16:
+                self._tables.clear()
+            hit = (phase, PhaseAngleTable(phase))
+            self._tables[id(phase)] = hit
+        return hit[1]
 
     # -- scene checks -----------------------------------------------------------------
     def _scene_info(self, scene, medium):
@@ -310,6 +477,9 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
             t_cap = T_CAP_OPTICAL_DEPTH / dr.maximum(sig_min, 1e-30)
             phase = medium.phase_function()
             scatters = dr.any(sigma_s > 0.0)
+            table = self._phase_table(phase) if (eq and self.alpha > 0) else None
+            cone = self.cone > 0 and len(emitters) > 0
+            wbar = table.weights(wavelengths) if table is not None else None
         else:
             sigma_t = None
         light_pos = [e.sample_position(time, mi.Point2f(0.5), active)[0].p for e in emitters]
@@ -354,17 +524,16 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                 t_e_max = dr.minimum(t_s, t_cap)
 
                 for k, em in enumerate(emitters):
+                    seg = _Segment(o, d, light_pos[k], t_e_max, table, wbar, self.alpha) if eq else None
                     # (1) the distance sample connected to light k
                     val, ds = self._light(scene, mei_d, em, sigma_t, med)
                     ph_val, _ = phase.eval_pdf(ctx, mei_d, ds.d, med)
-                    if eq:
-                        w = self.mis_weight(pdf_d, equiangular_pdf(o, d, light_pos[k], t_e_max, t_d))
-                    else:
-                        w = 1.0
+                    w = self.mis_weight(pdf_d, seg.pdf(t_d)) if eq else 1.0
                     L += dr.select(med, beta * w_med * ph_val * val * w, 0.0)
                     if eq:
                         # (2) an equiangular sample toward light k
-                        t_e, pdf_e = equiangular_sample(o, d, light_pos[k], t_e_max, sampler.next_1d(active))
+                        t_e, pdf_e = seg.sample(sampler.next_1d(active), sampler.next_1d(active),
+                                                sampler.next_1d(active))
                         ok = active & scatters & (pdf_e > 0) & (t_e < t_s)
                         x_e = o + d * t_e
                         mei_e = self._medium_interaction(x_e, d, t_e, wavelengths, time, medium_ptr)
@@ -377,6 +546,21 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
 
                 # ---- continue from the distance sample: phase sampling
                 wo, ph_w, ph_pdf = phase.sample(ctx, mei_d, sampler.next_1d(med), sampler.next_2d(med), med)
+                if cone:
+                    # defensive mixture with directions drawn around each light (density ∝ 1/angle)
+                    u_c = sampler.next_1d(med)
+                    u_a = sampler.next_2d(med)
+                    use_cone = u_c < self.cone
+                    kc = mi.UInt32(dr.minimum(u_c * (len(emitters) / self.cone), len(emitters) - 1))
+                    for k in range(len(emitters)):
+                        w_cone = _cone_sample(dr.normalize(light_pos[k] - x_d), u_a)
+                        wo = dr.select(use_cone & (kc == k), w_cone, wo)
+                    ph_val, ph_pdf = phase.eval_pdf(ctx, mei_d, wo, med)
+                    pdf_mix = (1.0 - self.cone) * ph_pdf
+                    for k in range(len(emitters)):
+                        pdf_mix += (self.cone / len(emitters)) * _cone_pdf(dr.normalize(light_pos[k] - x_d), wo)
+                    ph_w = dr.select(pdf_mix > 0, ph_val / pdf_mix, 0.0)
+                    ph_pdf = pdf_mix
                 med &= ph_pdf > 0
                 beta = dr.select(med, beta * w_med * ph_w, beta)
                 o_next = dr.select(med, x_d, o_next)
