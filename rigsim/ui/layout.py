@@ -48,7 +48,7 @@ def build(app) -> None:
             v3.VSpacer()
             v3.VSelect(v_model=("render_quality",), items=("render_quality_items",), density="compact",
                        hide_details=True, variant="outlined", style="max-width: 220px", classes="mr-2",
-                       label="converged render")
+                       label="converged render", id="render-quality")
             v3.VBtn("Render", id="render-btn", click=app.ctrl.render_converged, color="primary",
                     variant="flat", prepend_icon="mdi-camera-iris", disabled=("render_running",))
             v3.VBtn("Cancel", click=app.ctrl.cancel_render, v_if="render_running", variant="text", classes="ml-1")
@@ -86,10 +86,10 @@ def build(app) -> None:
                         _num(v3, html, "Focal length", "c_focal_length_mm", 8, 105, 1, "mm")
                         _num(v3, html, "Aperture (f-number)", "c_f_number", 1.4, 22, 0.1, "")
                         with html.Div(classes="d-flex align-center mt-2"):
-                            v3.VBtnToggle(v_model=("c_port_kind",), mandatory=True, density="compact",
-                                          color="primary", variant="outlined", divided=True,
-                                          children=[v3.VBtn("dome", value="dome", size="small"),
-                                                    v3.VBtn("flat", value="flat", size="small")])
+                            with v3.VBtnToggle(v_model=("c_port_kind",), mandatory=True, density="compact", color="primary",
+                                               variant="outlined", divided=True):
+                                v3.VBtn("dome", value="dome", size="small")
+                                v3.VBtn("flat", value="flat", size="small")
                         _num(v3, html, "Port radius", "c_port_radius_m", 0.03, 0.2, 0.005, "m")
                         _num(v3, html, "Housing radius (keep-out sphere)", "c_housing_radius_m", 0.05, 0.3,
                              0.005, "m")
@@ -115,10 +115,10 @@ def build(app) -> None:
                             _num(v3, html, "Forward of the lens (− = behind)", "l_arm_forward_m", -0.4, 0.4,
                                  0.01, "m")
                             html.Div("Aim", classes="text-overline mt-1")
-                            v3.VBtnToggle(v_model=("l_aim_mode",), mandatory=True, density="compact",
-                                          color="primary", variant="outlined", divided=True,
-                                          children=[v3.VBtn("yaw / pitch", value="angles", size="small"),
-                                                    v3.VBtn("at a point", value="point", size="small")])
+                            with v3.VBtnToggle(v_model=("l_aim_mode",), mandatory=True, density="compact", color="primary",
+                                               variant="outlined", divided=True):
+                                v3.VBtn("yaw / pitch", value="angles", size="small")
+                                v3.VBtn("at a point", value="point", size="small")
                             with html.Div(v_if="l_aim_mode == 'angles'"):
                                 _num(v3, html, "Yaw (+ = towards image right)", "l_yaw_deg", -90, 90, 1, "°")
                                 _num(v3, html, "Pitch (+ = up)", "l_pitch_deg", -60, 60, 1, "°")
@@ -139,10 +139,10 @@ def build(app) -> None:
                                          density="compact", variant="outlined", hide_details="auto", classes="mt-2",
                                          error_messages=("err_l_spectrum",))
                             with html.Div(v_if="l_kind == 'strobe'"):
-                                v3.VBtnToggle(v_model=("l_power_mode",), mandatory=True, density="compact",
-                                              color="primary", variant="outlined", divided=True,
-                                              children=[v3.VBtn("guide number", value="guide_number", size="small"),
-                                                        v3.VBtn("energy", value="energy", size="small")])
+                                with v3.VBtnToggle(v_model=("l_power_mode",), mandatory=True, density="compact",
+                                                   color="primary", variant="outlined", divided=True):
+                                    v3.VBtn("guide number", value="guide_number", size="small")
+                                    v3.VBtn("energy", value="energy", size="small")
                                 with html.Div(v_if="l_power_mode == 'guide_number'"):
                                     _num(v3, html, "Guide number (in air, ISO 100)", "l_guide_number_m", 5, 60, 1, "m")
                                 with html.Div(v_if="l_power_mode == 'energy'"):
@@ -183,10 +183,10 @@ def build(app) -> None:
                     with v3.VExpansionPanelText():
                         v3.VSelect(v_model=("sensor",), items=("sensor_items",), label="sensor", density="compact",
                                    hide_details=True, variant="outlined")
-                        v3.VBtnToggle(v_model=("exposure_mode",), mandatory=True, density="compact",
-                                      color="primary", variant="outlined", divided=True, classes="mt-2",
-                                      children=[v3.VBtn("auto / TTL", value="auto", size="small"),
-                                                v3.VBtn("manual", value="manual", size="small")])
+                        with v3.VBtnToggle(v_model=("exposure_mode",), mandatory=True, density="compact", color="primary",
+                                           variant="outlined", divided=True, classes="mt-2"):
+                            v3.VBtn("auto / TTL", value="auto", size="small")
+                            v3.VBtn("manual", value="manual", size="small")
                         with html.Div(v_if="exposure_mode == 'manual'"):
                             _num(v3, html, "Shutter 1/x s", "shutter_inv", 1, 1000, 1, "1/s", slider=False, err=False)
                             _num(v3, html, "ISO", "iso", 50, 12800, 50, "", slider=False, err=False)

@@ -388,8 +388,8 @@ def _value(v: Any, where: str) -> str:
     if isinstance(v, float):
         if not math.isfinite(v):
             raise ConfigError(f"cannot write a non-finite number ({v})", field=where)
-        s = format(v, ".12g")
-        return s if any(c in s for c in ".en") else s + ".0"
+        s = repr(v)  # shortest text that reads back to the same float
+        return s if any(c in s for c in ".e") else s + ".0"
     if isinstance(v, str):
         # JSON's string escapes (\" \\ \n \t \uXXXX) are valid TOML basic-string escapes
         return json.dumps(v, ensure_ascii=False)

@@ -172,7 +172,7 @@ def scene_parts(scene: Scene, *, water_rgb: tuple[float, float, float] | None = 
         cone = pv.Cone(center=pos + aim * length / 2, direction=-aim, height=length,
                        radius=length * math.tan(half), resolution=48, capping=False)
         sel = selected_light == i
-        parts.append(Part(f"beam{i}", cone, col, opacity=0.28 if sel else 0.16))
+        parts.append(Part(f"beam{i}", cone, col, opacity=0.32 if sel else 0.2))
         head = pv.Cylinder(center=pos - aim * 0.04, direction=aim, radius=0.045, height=0.09)
         parts.append(Part(f"head{i}", head, (1.0, 0.55, 0.1) if sel else (0.85, 0.85, 0.85)))
         # arm: from the housing's side, in the image plane, to the light

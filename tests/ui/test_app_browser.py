@@ -132,12 +132,23 @@ def test_page_edit_compare_and_files(server):
 
         # the comparison panel fills with images for both waters and the plot
         page.wait_for_selector("#compare-plot", timeout=60_000)
+        assert page.locator("#compare-info").text_content().startswith("2 images") or \
+            page.locator(".v-card-subtitle").count() >= 2
+
+        # a converged render, with progress, replaces the preview
+        _choose(page, "render-quality", "draft 240 px, 16 spp")
+        page.locator("#render-btn").click()
+        page.wait_for_function("() => (document.querySelector('#render-message')||{}).textContent"
+                               "?.includes('converged render done')", timeout=120_000)
+        conv = _state(page)
+        assert "240×160" in conv["info"] and conv["src"] != wider["src"]
         shot = ROOT / "artifacts" / "ui" / "rig_designer.png"
         shot.parent.mkdir(parents=True, exist_ok=True)
         page.screenshot(path=str(shot), full_page=True)
         print(f"\nscreenshot: {shot}")
         print(f"metrics coastal: {first['metrics']}\nmetrics clear: {clear['metrics']}\n"
-              f"metrics turned: {turned['metrics']}\nmetrics arm 0.6 m: {wider['metrics']}")
+              f"metrics turned: {turned['metrics']}\nmetrics arm 0.6 m: {wider['metrics']}\n"
+              f"converged: {conv['info']} {conv['metrics']}")
 
         # files: refused outside the sandbox, written inside
         page.get_by_text("Rig file", exact=True).click()
