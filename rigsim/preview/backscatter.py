@@ -80,8 +80,11 @@ class LightTables:
         j = y.astype(np.int64)
         fy = (y - j)[..., None]
         j1 = np.minimum(j + 1, len(rn) - 1)
-        a = tab[j, i] * (1 - fx) + tab[j, i + 1] * fx
-        b = tab[j1, i] * (1 - fx) + tab[j1, i + 1] * fx
+        nt = len(tn)
+        flat = tab.reshape(-1, tab.shape[-1])
+        a0, a1 = j * nt + i, j1 * nt + i
+        a = np.take(flat, a0, axis=0) * (1 - fx) + np.take(flat, a0 + 1, axis=0) * fx
+        b = np.take(flat, a1, axis=0) * (1 - fx) + np.take(flat, a1 + 1, axis=0) * fx
         return a * (1 - fy) + b * fy
 
 

@@ -58,6 +58,24 @@ BEAM_GRID_N = 128
 _NU0 = 1e-2  # cycles/rad: scale of the ν interpolation variable
 
 
+_Q_CACHE: dict = {}
+
+
+def _q_table(components: PhaseComponents, cutoff_rad: float) -> tuple[np.ndarray, np.ndarray]:
+    """(x, Q_k) on ν = 0 and 240 log-spaced frequencies 10⁻²…2·10⁵ cycles/rad, x = ln(1 + ν/ν₀); cached."""
+    key = (id(components), float(cutoff_rad))
+    hit = _Q_CACHE.get(key)
+    if hit is not None and hit[0] is components:
+        return hit[1], hit[2]
+    nu = np.concatenate([[0.0], np.geomspace(1e-2, 2e5, 240)])
+    x = np.log1p(nu / _NU0)
+    q = components.saa_transform(nu, cutoff_rad)
+    if len(_Q_CACHE) > 32:
+        _Q_CACHE.clear()
+    _Q_CACHE[key] = (components, x, q)
+    return x, q
+
+
 class SmallAngle:
     """Small-angle forward scattering for a set of bands (see module docstring).
 
@@ -81,9 +99,7 @@ class SmallAngle:
         self.w = np.asarray(weights, float)
         self.F_k = components.forward_fraction(self.cutoff_rad)  # (K,)
         self.F = self.w @ self.F_k  # (B,)
-        nu = np.concatenate([[0.0], np.geomspace(1e-2, 2e5, 700)])
-        self._x = np.log1p(nu / _NU0)
-        self._Qk = components.saa_transform(nu, self.cutoff_rad)  # (K, n_nu)
+        self._x, self._Qk = _q_table(components, self.cutoff_rad)
 
     def q(self, nu: np.ndarray) -> np.ndarray:
         """Q(ν) per band, shape ``shape(nu) + (B,)``."""
@@ -91,15 +107,21 @@ class SmallAngle:
         qk = np.stack([np.interp(x, self._x, self._Qk[k]) for k in range(self._Qk.shape[0])], axis=-1)
         return qk @ self.w.T
 
-    def kernel(self, nu: np.ndarray, tau: np.ndarray) -> np.ndarray:
-        """Unit-mass kernel transform ``K(ν; τ)`` per band, ``shape(nu) + (B,)``; τ (B,) = b r."""
+    def kernel(self, nu: np.ndarray, tau: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
+        """Unit-mass kernel transform ``K(ν; τ)`` per band, ``shape(nu) + (B,)``; τ (B,) = b r.
+
+        ``q`` is :meth:`q` at ``nu`` if already known.
+        """
         tau = np.asarray(tau, float)
-        q = self.q(nu)
-        den = np.expm1(tau * self.F)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            k = np.where(den > 1e-300, np.expm1(tau * q) / np.where(den > 1e-300, den, 1.0),
-                         q / np.where(self.F > 0, self.F, 1.0))
-        return np.where(self.F > 0, k, 1.0)
+        q = self.q(nu) if q is None else q
+        tf = tau * self.F
+        small = tf < 1e-9
+        scale = np.where(small, 0.0, 1.0 / np.where(small, 1.0, np.expm1(tf)))
+        k = np.expm1(q * tau) * scale
+        if np.any(small):  # τ → 0: K → Q/F (and 1 where there is no forward scattering at all)
+            lim = np.where(self.F > 0, 1.0 / np.where(self.F > 0, self.F, 1.0), 0.0)
+            k = np.where(small, np.where(self.F > 0, q * lim, 1.0), k)
+        return k
 
     # -- camera leg --------------------------------------------------------------------
     def blur_image(self, source: np.ndarray, range_m: np.ndarray, pitch_rad: tuple[float, float], *,
@@ -117,15 +139,16 @@ class SmallAngle:
         fy = np.fft.fftfreq(Hp, d=pitch_rad[1])[:, None]
         fx = np.fft.rfftfreq(Wp, d=pitch_rad[0])[None, :]
         nu = np.hypot(fx, fy)
-        out = np.zeros_like(source)
+        q = self.q(nu)
+        out = np.zeros(source.shape, np.float64)
         for i in range(n_bins):
             m = finite & (r >= edges[i]) & (r < edges[i + 1])
             if not m.any():
                 continue
             r_bin = float(np.sqrt(edges[i] * edges[i + 1])) if n_bins > 1 else float(np.nanmedian(r[m]))
-            src = np.where(m[..., None], source, 0.0)
+            src = np.where(m[..., None], source, 0.0).astype(np.float32)
             spec = sfft.rfft2(src, s=(Hp, Wp), axes=(0, 1), workers=-1)
-            spec *= self.kernel(nu, self.b * r_bin)
+            spec *= self.kernel(nu, self.b * r_bin, q).astype(np.complex64)
             out += sfft.irfft2(spec, s=(Hp, Wp), axes=(0, 1), workers=-1)[:H, :W]
         return out
 
@@ -146,11 +169,11 @@ class SmallAngle:
         f = np.where(th < np.pi, beam.relative_intensity(np.minimum(th, np.pi)), 0.0)
         spec = np.fft.rfft2(f)
         nu = np.hypot(np.fft.fftfreq(N, d=pitch)[:, None], np.fft.rfftfreq(N, d=pitch)[None, :])
+        q = self.q(nu)
         r_nodes = np.atleast_1d(np.asarray(r_nodes, float))
-        table = np.empty((r_nodes.size, N // 2 + 1, len(self.b)))
-        for j, r in enumerate(r_nodes):
-            k = self.kernel(nu, self.b * r)  # (N, N/2+1, B)
-            blurred = np.fft.irfft2(spec[..., None] * k, s=(N, N), axes=(0, 1))
-            table[j] = np.clip(blurred[0, :N // 2 + 1, :], 0.0, None)
+        k = np.stack([self.kernel(nu, self.b * r, q) for r in r_nodes])  # (n_r, N, N/2+1, B)
+        # only row 0 (θ_y = 0) of the result is needed: inverse FFT along y is a sum over rows
+        row = np.fft.irfft(np.sum(spec[None, :, :, None] * k, axis=1) / N, n=N, axis=1)  # (n_r, N, B)
+        table = np.clip(row[:, :N // 2 + 1, :], 0.0, None)
         theta = np.arange(N // 2 + 1) * pitch
         return theta, table

@@ -195,8 +195,8 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
                    wavelengths_nm: Sequence[float] = DEFAULT_WAVELENGTHS_NM, bandwidth_nm=None,
                    layers: Sequence[str] = ("range_m", "clear", "object_id"), split: bool = False,
                    shadows: bool = False, forward_scatter: bool = True, forward_cutoff_deg: float = 90.0,
-                   sub_bands: int = 3, pixel_samples: int = 1, backscatter_grid: int | None = 48,
-                   backscatter_nodes: int = 128, spp: int | None = None, seed: int | None = None,
+                   sub_bands: int = 3, pixel_samples: int = 1, backscatter_grid: int | None = 32,
+                   backscatter_nodes: int = 64, spp: int | None = None, seed: int | None = None,
                    max_depth: int | None = None, progress: ProgressCallback | None = None) -> SpectralImage:
     """Fast semi-analytic image of a :class:`~rigsim.scene.types.Scene` (see module docstring).
 
@@ -300,14 +300,23 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
     g = (np.arange(n) + 0.5) / n
     PX = ((np.arange(width)[:, None] + g[None, :]).ravel() / width)
     PY = ((np.arange(height)[:, None] + g[None, :]).ravel() / height)
-    PXg, PYg = np.meshgrid(PX, PY)  # (H n, W n)
-    o_s, d_s = camera_rays(cam, PXg, PYg, n_water=WATER_INDEX)
-    t_s, oid_s = cast_rays(surf, o_s, d_s)
+    if n == 1:
+        o_s, d_s, t_s, oid_s = o_c, d_c, t_c, oid_c
+    else:
+        PXg, PYg = np.meshgrid(PX, PY)  # (H n, W n)
+        o_s, d_s = camera_rays(cam, PXg, PYg, n_water=WATER_INDEX)
+        t_s, oid_s = cast_rays(surf, o_s, d_s)
     hit = oid_s > 0
     ts = np.where(hit, t_s, 0.0)
     p_s = o_s + ts[..., None] * d_s
     nrm = np.where(hit[..., None], surf.normal[np.maximum(oid_s - 1, 0)], 0.0)
     nrm = np.where((np.sum(nrm * d_s, axis=-1) > 0)[..., None], -nrm, nrm)  # two-sided: face the camera
+    # work on the samples that hit a surface only
+    sample_shape = hit.shape
+    hidx = np.flatnonzero(hit)
+    p_s, nrm = p_s.reshape(-1, 3)[hidx], nrm.reshape(-1, 3)[hidx]
+    oid_s, ts = oid_s.ravel()[hidx], ts.ravel()[hidx]
+    hit = np.ones(len(hidx), bool)
     rho_sub = surf.reflectance(lam.ravel()).reshape(len(surf) + 1, B, sub_bands)  # (S+1, B, n_sub)
     rho_c = surf.reflectance(wl)  # (S+1, B)
     tick(0.1, "geometry")
@@ -319,7 +328,8 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
     results: dict[tuple[str, str], np.ndarray] = {}
     pitch = angular_pitch_rad(cam, width, height, n_water=WATER_INDEX)
     world_r = _world_radius(scene)
-    l_max = float(np.max(ts)) if hit.any() else 1.0
+    r_nodes = np.geomspace(0.05, world_r, 16)  # distances of the blurred-beam tables (m)
+    beam_cache: dict = {}
 
     for gi, (gname, lights) in enumerate(groups.items()):
         has_day = gname == "continuous" and scene.daylight is not None and has_water
@@ -349,7 +359,6 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
             clear += (geo * f)[..., None] * ((rho_sub * I_sub) @ lam_w)[oid_s]
             if not has_water:
                 continue
-            r_hi = float(np.max(r[hit])) if hit.any() else 1.0
             path = r + ts
             L_nodes = np.linspace(0.0, max(float(np.max(path[hit])) if hit.any() else 1.0, 1e-3) * 1.0001, 513)
             tab = np.einsum("kbs,lbs->klb", rho_sub * (I_sub * lam_w),
@@ -357,8 +366,9 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
             direct += (geo * f)[..., None] * _interp_table(tab, oid_s, path, L_nodes)
             lt = LightTables(lpos, axis, light.beam.relative_intensity, I_c)
             if forward:
-                r_nodes = np.geomspace(0.05, max(world_r, 2 * r_hi), 16)
-                th_n, btab = water.small_angle.blurred_beam(light.beam, r_nodes)
+                if light.beam not in beam_cache:
+                    beam_cache[light.beam] = water.small_angle.blurred_beam(light.beam, r_nodes)
+                th_n, btab = beam_cache[light.beam]
                 lt = dataclasses.replace(lt, theta_nodes=th_n, r_nodes=r_nodes, blurred=btab)
                 fb = lt.blurred_at(theta, r)  # (h, w, B)
                 rr = r[..., None]
@@ -369,7 +379,7 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
             E_sun, E_diff, day, kd_day = _daylight_on_surfaces(scene, p_s, nrm, hit, wl)
             direct_day = rho_c[oid_s] / np.pi * E_sun
             scattered += rho_c[oid_s] / np.pi * E_diff
-        clear = _pixel_mean(clear, n)
+        clear = _pixel_mean(_expand(clear, sample_shape, hidx), n)
         if not has_water:
             results[(gname, "full")] = clear
             results[(gname, "clear")] = clear
@@ -382,9 +392,11 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
         scattered *= T
         fwd = np.zeros(shape)
         if forward:
-            src = _pixel_mean((direct + scattered) * np.expm1(water.b * water.F * ts[..., None]), n)
+            src = _pixel_mean(_expand((direct + scattered) * np.expm1(water.b * water.F * ts[..., None]),
+                                      sample_shape, hidx), n)
             fwd = water.small_angle.blur_image(src, range_m.astype(float), pitch)
-        direct, scattered = _pixel_mean(direct, n), _pixel_mean(scattered, n)
+        direct = _pixel_mean(_expand(direct, sample_shape, hidx), n)
+        scattered = _pixel_mean(_expand(scattered, sample_shape, hidx), n)
         tick(0.3 + 0.3 * gi, f"{gname}: direct and forward")
         back = np.zeros(shape)
         if tables:
@@ -445,6 +457,13 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
 
 
 # ---------------------------------------------------------------------------------------
+def _expand(a: np.ndarray, sample_shape: tuple, idx: np.ndarray) -> np.ndarray:
+    """Scatter per-hit values (N, B) into an image of ``sample_shape + (B,)`` (zeros elsewhere)."""
+    out = np.zeros((int(np.prod(sample_shape)), a.shape[-1]), a.dtype)
+    out[idx] = a
+    return out.reshape(*sample_shape, a.shape[-1])
+
+
 def _interp_table(tab: np.ndarray, oid: np.ndarray, x: np.ndarray, nodes: np.ndarray) -> np.ndarray:
     """``tab[oid, ·, :]`` read at ``x`` on the uniform ``nodes`` (linear): shape ``x.shape + (B,)``."""
     u = np.clip((x - nodes[0]) / (nodes[1] - nodes[0]), 0.0, len(nodes) - 1.000001)

@@ -99,9 +99,27 @@ class PhaseComponents:
         return out
 
 
+_CACHE: dict = {}
+
+
 def phase_components(phase: PhaseFunction, wavelength_range_nm: tuple[float, float] | None = None,
                      grid: LogAngleGrid = DEFAULT_GRID) -> PhaseComponents:
-    """Write a phase function as weighted wavelength-independent components (see module docstring)."""
+    """Write a phase function as weighted wavelength-independent components (see module docstring).
+
+    Cached per phase-function object (the same water gives the same tables).
+    """
+    key = (id(phase), wavelength_range_nm, grid)
+    hit = _CACHE.get(key)
+    if hit is not None and hit[0] is phase:
+        return hit[1]
+    out = _phase_components(phase, wavelength_range_nm, grid)
+    if len(_CACHE) > 32:
+        _CACHE.clear()
+    _CACHE[key] = (phase, out)
+    return out
+
+
+def _phase_components(phase, wavelength_range_nm, grid) -> PhaseComponents:
     if isinstance(phase, MixturePhase) and not any(c.wavelength_dependent for c in phase.components):
         masses = np.stack([np.asarray(c.cell_masses(grid), float) for c in phase.components])
         lo, hi = wavelength_range_nm or (-np.inf, np.inf)

@@ -1,0 +1,221 @@
+"""The preview against exact solutions and independent integrals; its layers, outputs and errors.
+
+No Mitsuba here (the comparisons with the renderer are in ``test_preview_vs_render.py``).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from rigsim.errors import ConfigError
+from rigsim.preview import PREVIEW_LAYERS, RENDERER_NAME, render_preview
+from rigsim.preview.forward import SmallAngle
+from rigsim.preview.phase import phase_components
+from rigsim.scene.types import BeamPattern, Daylight, Rig, Scene, Target
+from rigsim.spectral_image import SpectralImage
+from rigsim.water import preset
+from tests.preview.helpers import (
+    absorbing_water,
+    backscatter_brute_force,
+    direct_reference,
+    disk_scene,
+    dome_camera,
+    make_light,
+)
+
+WL = [450.0, 550.0, 650.0]
+BW = 10.0
+
+
+def _two_lights(kind="strobe"):
+    return [make_light(kind, position=(0.4, 0.2, 0.0), aim=(np.sin(np.radians(20)), 0.0, np.cos(np.radians(20))),
+                       intensity=3.0, beam=BeamPattern(beam_angle_deg=60.0), name="a"),
+            make_light(kind, position=(-0.3, 0.1, 0.05), intensity=(1.0, 2.0), name="b")]
+
+
+# --------------------------------------------------------------------------- exact solutions
+@pytest.mark.parametrize("kind", ["strobe", "continuous"])
+def test_non_scattering_water_is_beer_lambert_exactly(kind):
+    """b = 0: L = ρ I f(θ) cos θ_i/(π r²) exp(−c (r_l + r_c)) per pixel; no backscatter, no forward part."""
+    scene = disk_scene(absorbing_water(), _two_lights(kind), distance=1.5, size=0.9)
+    w, h = 18, 18
+    img = render_preview(scene, width=w, height=h, wavelengths_nm=WL, bandwidth_nm=BW, split=True)
+    ref, on = direct_reference(scene, w, h, WL, BW)
+    prefix = "flash_" if kind == "strobe" else ""
+    full = img.layers["flash"] if kind == "strobe" else img.radiance
+    assert on.sum() > 50
+    np.testing.assert_allclose(img.layers[f"{prefix}direct"][on], ref[on], rtol=2e-3)
+    np.testing.assert_allclose(full, img.layers[f"{prefix}direct"], rtol=1e-6, atol=0)
+    assert np.all(img.layers[f"{prefix}backscatter"] == 0)
+    assert np.all(full[~on] == 0)
+    if kind == "strobe":
+        assert np.all(img.radiance == 0)
+
+
+def test_no_water_equals_clear_layer():
+    scene = disk_scene(None, _two_lights(), distance=1.5, size=0.9)
+    img = render_preview(scene, width=14, height=14, wavelengths_nm=WL, bandwidth_nm=BW, split=True,
+                         layers=("clear",))
+    ref, on = direct_reference(scene, 14, 14, WL, BW)
+    np.testing.assert_allclose(img.layers["flash"][on], ref[on], rtol=2e-3)
+    np.testing.assert_allclose(img.layers["flash_clear"], img.layers["flash"], rtol=1e-6)
+    assert np.all(img.layers["flash_backscatter"] == 0)
+
+
+def test_clear_layer_is_the_view_without_water():
+    lights = _two_lights()
+    wet = render_preview(disk_scene(preset("coastal"), lights, size=0.9), width=12, height=12,
+                         wavelengths_nm=WL, bandwidth_nm=BW)
+    dry = render_preview(disk_scene(None, lights, size=0.9), width=12, height=12, wavelengths_nm=WL, bandwidth_nm=BW)
+    np.testing.assert_allclose(wet.layers["flash_clear"], dry.layers["flash"], rtol=1e-6)
+
+
+@pytest.mark.parametrize("pixel", [(0.5, 0.5), (0.05, 0.1), (0.8, 0.7)])
+def test_single_backscatter_matches_brute_force_integral(pixel):
+    """Classical single scattering (forward_scatter=False) against a 200 001-point integral with phase.eval."""
+    water = preset("coastal")
+    lights = [make_light(position=(-0.4, 0.1, 0.0)),
+              make_light(position=(0.3, 0.1, 0.0), aim=(0.2, 0.0, 1.0), intensity=(2.0, 0.5))]
+    scene = disk_scene(water, lights, distance=3.0, size=0.5, camera=dome_camera(24.0, (36.0, 24.0)))
+    w, h = 30, 20
+    col, row = int(pixel[0] * w), int(pixel[1] * h)
+    ref = backscatter_brute_force(scene, (col + 0.5) / w, (row + 0.5) / h, WL)
+    for grid in (None, 16):
+        img = render_preview(scene, width=w, height=h, wavelengths_nm=WL, bandwidth_nm=1e-3, split=True,
+                             forward_scatter=False, backscatter_grid=grid)
+        np.testing.assert_allclose(img.layers["flash_backscatter"][row, col], ref, rtol=2e-3)
+
+
+def test_vanishing_forward_cutoff_is_the_single_scattering_model():
+    scene = disk_scene(preset("coastal"), _two_lights(), distance=2.0, size=0.6)
+    kw = dict(width=16, height=16, wavelengths_nm=WL, bandwidth_nm=BW, split=True)
+    a = render_preview(scene, forward_scatter=False, **kw)
+    b = render_preview(scene, forward_cutoff_deg=1e-3, **kw)
+    for k in ("flash", "flash_direct", "flash_backscatter"):
+        np.testing.assert_allclose(b.layers[k], a.layers[k], rtol=2e-3, atol=1e-12)
+
+
+# --------------------------------------------------------------------------- layers
+def test_layers_add_up():
+    """radiance = direct + forward-scattered + backscatter: exact without forward scattering; the forward
+    part is ≥ 0 and vanishes off the target far from it."""
+    scene = disk_scene(preset("coastal"), _two_lights(), distance=2.0, size=0.6)
+    kw = dict(width=24, height=24, wavelengths_nm=WL, bandwidth_nm=BW, split=True)
+    single = render_preview(scene, forward_scatter=False, **kw)
+    np.testing.assert_allclose(single.layers["flash"],
+                               single.layers["flash_direct"] + single.layers["flash_backscatter"], rtol=1e-5)
+    img = render_preview(scene, **kw)
+    fwd = img.layers["flash"] - img.layers["flash_direct"] - img.layers["flash_backscatter"]
+    assert fwd.min() > -1e-6 * img.layers["flash"].max()
+    on = img.layers["object_id"] > 0
+    assert np.all(fwd[on].mean(axis=0) > 0.2 * img.layers["flash_direct"][on].mean(axis=0))
+    # the unscattered part is the same in both models
+    np.testing.assert_allclose(img.layers["flash_direct"], single.layers["flash_direct"], rtol=1e-6)
+
+
+def test_outputs_match_the_renderer_interface():
+    scene = disk_scene(preset("clear"), _two_lights() + [make_light("continuous", position=(0, 0.3, 0), name="v")],
+                       size=0.6)
+    img = render_preview(scene, width=12, height=12, layers=PREVIEW_LAYERS, spp=128, seed=7)
+    assert isinstance(img, SpectralImage)
+    assert img.radiance.shape == (12, 12, 31) and img.radiance.dtype == np.float32
+    assert set(img.layers) == {"range_m", "object_id", "clear", "direct", "backscatter", "flash", "flash_clear",
+                               "flash_direct", "flash_backscatter"}
+    assert img.layers["object_id"].dtype == np.int32 and img.layers["range_m"].dtype == np.float32
+    assert img.meta["renderer"] == RENDERER_NAME
+    assert img.meta["object_ids"] == {"1": "target 0 white-disk: disk"}
+    for k in ("wall_time_s", "fov_water_x_deg", "radiance_reference", "scene_hash", "wavelength_nm"):
+        assert k in img.meta
+    assert img.layers["range_m"][6, 6] == pytest.approx(1.5, rel=1e-3)
+    assert np.isinf(img.layers["range_m"][0, 0])
+    again = render_preview(scene, width=12, height=12, layers=PREVIEW_LAYERS)
+    np.testing.assert_array_equal(again.radiance, img.radiance)  # deterministic, spp/seed ignored
+
+
+def test_colorchecker_object_ids_follow_target_surfaces():
+    from rigsim.config.rig import load_rig
+    from rigsim.scene.build import build_scene
+
+    sc = build_scene(load_rig("rigs/twin-strobes-45-wide.toml"), "coastal", "colorchecker", 1.0)
+    img = render_preview(sc, width=60, height=40, layers=("object_id",), wavelengths_nm=[550.0])
+    assert len(img.meta["object_ids"]) == 25
+    assert img.meta["object_ids"]["20"] == "target 0 colorchecker: white 9.5 (.05 D)"
+    assert set(np.unique(img.layers["object_id"])) >= {0, 1, 20}
+
+
+@pytest.mark.parametrize("kw, msg", [
+    (dict(width=0), "width"),
+    (dict(layers=("nope",)), "unknown layer"),
+    (dict(wavelengths_nm=[500.0, 400.0]), "increase"),
+    (dict(forward_cutoff_deg=120.0), "cut-off"),
+])
+def test_bad_input_is_a_config_error(kw, msg):
+    scene = disk_scene(preset("clear"), _two_lights())
+    with pytest.raises(ConfigError, match=msg):
+        render_preview(scene, **{"width": 8, "height": 8, **kw})
+
+
+def test_shadows_darken_what_is_hidden_from_a_light():
+    """A small disk in front of a large one shadows it from a light on the axis (shadows=True)."""
+    cam = dome_camera(35.0)
+    light = make_light(position=(0.0, 0.0, 0.2))
+    t_front = Target("black-disk", 1.0, size_m=0.2)
+    t_back = Target("white-disk", 2.0, size_m=1.5)
+    scene = Scene(Rig("r", cam, (light,)), absorbing_water(), (t_front, t_back))
+    kw = dict(width=32, height=32, wavelengths_nm=[550.0], split=True)
+    lit = render_preview(scene, **kw)
+    shad = render_preview(scene, shadows=True, **kw)
+    oid = shad.layers["object_id"]
+    # back-disk pixels just outside the front disk's image are in its shadow (light behind the camera)
+    ring = (oid == 2) & (shad.layers["flash_direct"][..., 0] < 0.5 * lit.layers["flash_direct"][..., 0])
+    assert ring.sum() > 10
+    assert np.all(shad.layers["flash_direct"] <= lit.layers["flash_direct"] + 1e-12)
+
+
+# --------------------------------------------------------------------------- small-angle machinery
+def test_small_angle_kernel_is_normalised_and_conserves_energy():
+    water = preset("coastal")
+    comps = phase_components(water.phase, water.wavelength_range_nm)
+    wl = np.array(WL)
+    sa = SmallAngle(comps, np.pi / 2, water.b_per_m(wl), comps.weights(wl))
+    assert np.allclose(sa.q(np.array([0.0]))[0], sa.F)
+    np.testing.assert_allclose(sa.F, 1 - water.phase.backscatter_fraction(wl), rtol=1e-6)
+    assert np.allclose(sa.kernel(np.array([0.0]), sa.b * 2.0)[0], 1.0)
+    src = np.zeros((64, 64, 3))
+    src[28:36, 28:36] = 1.0
+    # a frame of 64 × 3° holds the whole forward hemisphere of the kernel: energy is conserved
+    out = sa.blur_image(src, np.full((64, 64), 2.0), (np.radians(3.0), np.radians(3.0)))
+    assert out.min() > -1e-6
+    np.testing.assert_allclose(out.sum(axis=(0, 1)), src.sum(axis=(0, 1)), rtol=0.01)
+    # a narrow frame (64 × 0.2°) loses the wide-angle part of the kernel, keeps the core
+    narrow = sa.blur_image(src, np.full((64, 64), 2.0), (np.radians(0.2), np.radians(0.2)))
+    kept = narrow.sum(axis=(0, 1)) / src.sum(axis=(0, 1))
+    assert np.all((kept > 0.3) & (kept < 0.95))
+    assert np.all(narrow[32, 32] < 1.0) and np.all(narrow[10, 10] > 0)
+
+
+def test_phase_components_reproduce_the_water_phase_function():
+    water = preset("coastal")
+    comps = phase_components(water.phase, water.wavelength_range_nm)
+    mu = np.cos(np.radians([0.05, 1.0, 10.0, 60.0, 120.0, 175.0]))
+    for lam in WL:
+        val = comps.eval_components(mu) @ comps.weights([lam])[0]
+        np.testing.assert_allclose(val, water.phase.eval(mu, lam), rtol=2e-3)
+
+
+# --------------------------------------------------------------------------- daylight
+def test_daylight_lights_the_target_and_the_water():
+    cam = dome_camera(35.0)
+    scene = Scene(Rig("r", cam, ()), preset("coastal"), (Target("white-disk", 2.0, size_m=0.6),),
+                  daylight=Daylight(depth_m=5.0, sun_zenith_deg=30.0))
+    img = render_preview(scene, width=16, height=16, wavelengths_nm=WL, bandwidth_nm=BW, split=True)
+    on = img.layers["object_id"] > 0
+    assert np.all(img.radiance[on].mean(axis=0) > img.radiance[~on].mean(axis=0))
+    assert np.all(img.layers["backscatter"][~on] > 0)
+    assert "flash" not in img.layers
+    assert img.meta["daylight_rendered"] is True
+    # deeper is darker
+    deep = Scene(scene.rig, scene.water, scene.targets, daylight=Daylight(depth_m=15.0, sun_zenith_deg=30.0))
+    img2 = render_preview(deep, width=16, height=16, wavelengths_nm=WL, bandwidth_nm=BW)
+    assert np.all(img2.radiance.mean(axis=(0, 1)) < img.radiance.mean(axis=(0, 1)))
