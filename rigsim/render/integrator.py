@@ -50,9 +50,25 @@ estimation), ``L_ind`` everything else.
   with the power heuristic (Veach's multi-sample MIS, ``β = 2``; ``mis="balance"``
   for ``β = 1``).  The weights are the same for all wavelengths (they need only sum
   to one), so the estimator is unbiased per wavelength.
+* **Light-directed continuation**: a scattered ray (from a medium vertex or a
+  surface) that passes a light at distance ``D`` carries in-scattered light ``∝ 1/D``
+  (the line integral of ``1/r²``), and ``D`` is small with probability ``∝ D²``: an
+  infinite-variance tail (double scattering next to a strobe: the fireflies left by
+  plain equiangular sampling).  New directions are therefore drawn from a
+  defensive mixture: with probability ``light_directed`` (0.4) around a light, at
+  angle α from it uniform in α (density ``1/(2π² sin α)`` ∝ ``1/α``, so ``1/D`` is
+  cancelled), otherwise from the phase function (BSDF); the weight is
+  ``value / mixture density``.
+* **Phase-weighted equiangular angles**: along the segment, the single-scattering
+  angle toward the ray's origin is ``ψ = θ + π/2``, so in θ the integrand is the
+  phase function itself (over ``D``).  Half of the equiangular samples
+  (``phase_weighted`` = 0.5) draw θ from the wavelength-averaged water phase function
+  on ``[θ_a, θ_b]``, the rest uniformly (:class:`PhaseAngleTable`); the reported
+  density is the mixture's.
 * **Surfaces** (opaque BSDFs, here rigsim's two-sided diffuse targets): next-event
-  estimation to every light with the analytic transmittance, then BSDF sampling,
-  as in ``volpath`` (point lights are delta: no MIS with BSDF sampling needed).
+  estimation to every light with the analytic transmittance, then the
+  BSDF/light-directed mixture (point lights are delta: no MIS with BSDF sampling
+  needed).
 * **Russian roulette** as ``volpath``: from ``rr_depth`` on, survive with
   ``q = min(max_i β_i, 0.95)``.  ``max_depth`` counts vertices as ``volpath`` does
   (1: nothing, since lights cannot be seen; 2: single scattering / direct light).
@@ -576,9 +592,25 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                 f = bsdf.eval(bsdf_ctx, si, si.to_local(ds.d), surf)
                 L += dr.select(surf, beta * f * val, 0.0)
             bs, bw = bsdf.sample(bsdf_ctx, si, sampler.next_1d(surf), sampler.next_2d(surf), surf)
-            surf &= bs.pdf > 0
+            wo_s = si.to_world(bs.wo)
+            pdf_s = bs.pdf
+            if has_medium and self.cone > 0 and len(emitters) > 0:
+                # the same defensive mixture as in the medium (rays from a surface passing a light)
+                u_c = sampler.next_1d(surf)
+                u_a = sampler.next_2d(surf)
+                use_cone = u_c < self.cone
+                kc = mi.UInt32(dr.minimum(u_c * (len(emitters) / self.cone), len(emitters) - 1))
+                for k in range(len(emitters)):
+                    w_cone = _cone_sample(dr.normalize(light_pos[k] - si.p), u_a)
+                    wo_s = dr.select(use_cone & (kc == k), w_cone, wo_s)
+                f_s, pdf_b = bsdf.eval_pdf(bsdf_ctx, si, si.to_local(wo_s), surf)
+                pdf_s = (1.0 - self.cone) * pdf_b
+                for k in range(len(emitters)):
+                    pdf_s += (self.cone / len(emitters)) * _cone_pdf(dr.normalize(light_pos[k] - si.p), wo_s)
+                bw = dr.select(pdf_s > 0, f_s / pdf_s, 0.0)
+            surf &= pdf_s > 0
             beta = dr.select(surf, beta * bw, beta)
-            r_s = si.spawn_ray(si.to_world(bs.wo))
+            r_s = si.spawn_ray(wo_s)
             o_next = dr.select(surf, r_s.o, o_next)
             d_next = dr.select(surf, r_s.d, d_next)
             cont |= surf
