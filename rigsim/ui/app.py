@@ -27,7 +27,6 @@ import io
 import json
 import logging
 import math
-import os
 import threading
 import time
 from collections import OrderedDict

@@ -228,52 +228,10 @@ def _scene(rig: Rig, cond: Conditions, distance_m: float | None = None, fill: fl
 # ----------------------------------------------------------------------------- metrics
 
 def measure(si, target_kind: str, *, cap=None, sensor=None, exposure=None) -> tuple[dict[str, float], dict]:
-    """The study's numbers for one image (see the module docstring).
+    """The study's numbers for one image: :func:`rigsim.metrics.scene.scene_metrics`."""
+    from rigsim.metrics.scene import scene_metrics
 
-    Parameters
-    ----------
-    si
-        SpectralImage with ``object_id`` (and ``backscatter``/``flash_backscatter``).
-    target_kind
-        The target's kind (selects the signal/reference regions).
-    cap, sensor, exposure
-        The capture and what made it; without them only the sensor-independent numbers.
-
-    Returns
-    -------
-    metrics, masks
-    """
-    from rigsim.metrics.contrast import backscatter_share, contrast_michelson, luminance
-    from rigsim.study.case import _chart_delta_e, photopic_luminance, target_masks
-
-    wl, bw = np.asarray(si.wavelength_nm), np.asarray(si.bandwidth_nm)
-    masks = target_masks(np.asarray(si.layers["object_id"]), si.meta.get("object_ids", {}), target_kind)
-    out: dict[str, float] = {}
-    h_total = si.radiant_exposure(1.0)
-    lum = photopic_luminance(h_total, wl, bw)
-    if "signal" in masks and "reference" in masks:
-        out["contrast_radiance"] = float(contrast_michelson(lum[masks["signal"]].mean(),
-                                                            lum[masks["reference"]].mean()))
-    if ("backscatter" in si.layers or "flash_backscatter" in si.layers) and "target" in masks:
-        out["backscatter_share"] = float(backscatter_share(si.radiant_exposure(1.0, "backscatter"), h_total,
-                                                           masks["target"]))
-    if cap is None:
-        return out, masks
-    lin = np.asarray(cap.linear_rgb, float)
-    y = luminance(lin)
-    if "signal" in masks and "reference" in masks and y.shape == lum.shape:
-        out["contrast_image"] = float(contrast_michelson(y[masks["signal"]].mean(), y[masks["reference"]].mean()))
-        region = masks["signal"] if target_kind in ("colorchecker", "slanted-edge") else masks["reference"]
-        if region.sum() >= 4 and sensor is not None and exposure is not None:
-            from rigsim.sensor.noise import snr_emva1288
-            from rigsim.sensor.pipeline import mean_electrons_rgb
-
-            mu_g = float(mean_electrons_rgb(si, sensor, exposure)[..., 1][region].mean())
-            out["snr_white"] = float(snr_emva1288(mu_g, sensor, iso=exposure.iso,
-                                                  exposure_time_s=exposure.exposure_time_s))
-    if target_kind == "colorchecker" and y.shape == lum.shape:
-        out["delta_e_mean"] = float(_chart_delta_e(lin, masks))
-    return {k: v for k, v in out.items() if v is not None and math.isfinite(v)}, masks
+    return scene_metrics(si, target_kind, cap=cap, sensor=sensor, exposure=exposure)
 
 
 def _develop(si, rig: Rig, cond: Conditions, masks: dict, seed: int):

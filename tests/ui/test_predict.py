@@ -52,7 +52,7 @@ def test_bad_conditions_are_one_line(doc):
 def test_cli_registers_app_command():
     from typer.testing import CliRunner
 
-    import rigsim.cli.app  # noqa: F401  (registers the command)
+    import rigsim.cli.designer  # noqa: F401  (registers the command)
     from rigsim.cli import app
 
     r = CliRunner().invoke(app, ["app", "--help"])

@@ -26,13 +26,3 @@ def run_app(
         raise ConfigError(f"unknown view {view!r}", field="--view", allowed="server, client")
     main(host=host, port=port, workdir=str(workdir) if workdir else None, rig=rig, open_browser=open_browser,
          view=view)
-
-
-# This module's name equals the Typer object it registers on (``rigsim.cli.app``): after an import,
-# Python sets the package attribute ``rigsim.cli.app`` to whatever ``sys.modules[__name__]`` holds,
-# which would replace the Typer app that ``rigsim.cli.main`` calls with this module.  Leave the Typer
-# app there instead (the command is registered on it above).  Renaming this file (e.g. to
-# ``designer.py``) would make this unnecessary.
-import sys as _sys  # noqa: E402
-
-_sys.modules[__name__] = app
