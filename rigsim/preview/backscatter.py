@@ -187,10 +187,13 @@ def interpolate_cumulative(cum: np.ndarray, grid_shape: tuple[int, int], grid_co
     ir, fr = idx(row, grid_row)
     sh = np.minimum(np.where(np.isfinite(s_hit), s_hit, s[-1]), s[-1])
     js, fs = idx(sh, s)
+    flat = cum.reshape(nr * nc * M, -1)
+    fs = fs[..., None]
     out = 0.0
     for dr_, wr in ((0, 1 - fr), (1, fr)):
         for dc_, wc in ((0, 1 - fc), (1, fc)):
-            a = cg[ir + dr_, ic + dc_, js]
-            b = cg[ir + dr_, ic + dc_, js + 1]
-            out = out + (wr * wc)[..., None] * (a * (1 - fs)[..., None] + b * fs[..., None])
+            base = ((ir + dr_) * nc + (ic + dc_)) * M + js
+            a = np.take(flat, base, axis=0)
+            b = np.take(flat, base + 1, axis=0)
+            out = out + (wr * wc)[..., None] * (a + (b - a) * fs)
     return out

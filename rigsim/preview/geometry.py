@@ -166,14 +166,34 @@ def scene_surfaces(scene: Scene) -> SceneSurfaces:
                          arr("normal"), half, np.array([p.shape == "disk" for p in pieces], bool))
 
 
-def _hit_t(surf: SceneSurfaces, k: int, origin: np.ndarray, direction: np.ndarray) -> np.ndarray:
+class _RayDots:
+    """Per-ray dot products with the scene's few distinct directions (surfaces share normals and axes)."""
+
+    def __init__(self, origin: np.ndarray, direction: np.ndarray):
+        self.o, self.d = origin, direction
+        self._cache: dict = {}
+
+    def dots(self, axis: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        key = tuple(np.round(axis, 15))
+        hit = self._cache.get(key)
+        if hit is None:
+            hit = self._cache[key] = (self.o @ axis, self.d @ axis)
+        return hit
+
+
+def _hit_t(surf: SceneSurfaces, k: int, origin: np.ndarray, direction: np.ndarray,
+           dots: _RayDots | None = None) -> np.ndarray:
     """Ray parameter of the hit with surface ``k`` (inf where missed)."""
-    c, n = surf.center[k], surf.normal[k]
-    den = direction @ n
+    dots = dots or _RayDots(origin, direction)
+    c, n, u, v = surf.center[k], surf.normal[k], surf.u[k], surf.v[k]
+    on, dn = dots.dots(n)
     with np.errstate(divide="ignore", invalid="ignore"):
-        t = np.where(np.abs(den) > 1e-12, ((c - origin) @ n) / den, np.inf)
-    p = origin + np.where(np.isfinite(t), t, 0.0)[..., None] * direction
-    a, b = (p - c) @ surf.u[k], (p - c) @ surf.v[k]
+        t = np.where(np.abs(dn) > 1e-12, (c @ n - on) / dn, np.inf)
+    tt = np.where(np.isfinite(t), t, 0.0)
+    ou, du = dots.dots(u)
+    ov, dv = dots.dots(v)
+    a = ou + tt * du - c @ u
+    b = ov + tt * dv - c @ v
     if surf.is_disk[k]:
         inside = a * a + b * b <= surf.half_size[k, 0] ** 2
     else:
@@ -186,8 +206,9 @@ def cast_rays(surf: SceneSurfaces, origin: np.ndarray, direction: np.ndarray) ->
     shape = direction.shape[:-1]
     best = np.full(shape, np.inf)
     oid = np.zeros(shape, np.int32)
+    dots = _RayDots(np.broadcast_to(origin, direction.shape), direction)
     for k in range(len(surf)):
-        t = _hit_t(surf, k, origin, direction)
+        t = _hit_t(surf, k, origin, direction, dots)
         hit = t < best
         best = np.where(hit, t, best)
         oid = np.where(hit, k + 1, oid)
@@ -201,8 +222,9 @@ def occluded(surf: SceneSurfaces, points: np.ndarray, light_pos: np.ndarray, *,
     dist = np.linalg.norm(d, axis=-1)
     d = d / np.maximum(dist, 1e-300)[..., None]
     blocked = np.zeros(points.shape[:-1], bool)
+    dots = _RayDots(points, d)
     for k in range(len(surf)):
-        t = _hit_t(surf, k, points, d)
+        t = _hit_t(surf, k, points, d, dots)
         b = (t > eps) & (t < dist - eps)
         if exclude is not None:
             b &= exclude != k + 1
