@@ -36,6 +36,8 @@ def render_cmd(
     wavelengths: str = typer.Option("400:700:10", "--wavelengths", help="Band centres START:STOP:STEP, nm."),
     split: bool = typer.Option(False, "--split", help="Also render the direct-only and backscatter-only layers."),
     engine: str = typer.Option("mitsuba", "--engine", help="mitsuba (Monte Carlo) or preview (semi-analytic)."),
+    integrator: str = typer.Option("rigsim", "--integrator",
+                                   help="rigsim (equiangular light sampling, default) or volpath (Mitsuba's)."),
     out: Path = typer.Option(..., "--out", help="Output folder."),
 ):
     """Render what the rig sees: DIR/spectral.exr (+ spectral.npz with every layer), preview.png,
@@ -55,6 +57,8 @@ def render_cmd(
     wl = parse_wavelength_range(wavelengths)
     if engine not in ("mitsuba", "preview"):
         raise ConfigError(f"unknown engine {engine!r}", field="--engine", allowed="mitsuba, preview")
+    if integrator not in ("rigsim", "volpath"):
+        raise ConfigError(f"unknown integrator {integrator!r}", field="--integrator", allowed="rigsim, volpath")
     scene = build_scene(load_rig(rig), load_water(water), target, distance, size_m=target_size)
     layers = ("range_m", "clear", "object_id")
     if engine == "preview":
@@ -68,7 +72,8 @@ def render_cmd(
                       TextColumn("{task.percentage:>3.0f}%"), TimeRemainingColumn()) as prog:
             task = prog.add_task("", total=1.0)
             si = render(scene, width=width, height=height, spp=spp, seed=seed, wavelengths_nm=wl, layers=layers,
-                        split=split, progress=lambda f, msg: prog.update(task, completed=f, description=msg))
+                        split=split, integrator=integrator,
+                        progress=lambda f, msg: prog.update(task, completed=f, description=msg))
     out.mkdir(parents=True, exist_ok=True)
     si.save(out)  # spectral.npz (radiance + every layer) and meta.json
     _write_exr(out / "spectral.exr", si)
@@ -96,7 +101,7 @@ def render_cmd(
     meta = dict(si.meta)
     meta["inputs"] = {"rig": str(rig), "water": water, "distance_m": distance, "target": target,
                       "target_size_m": scene.targets[0].size_m, "width": width, "height": height, "spp": spp,
-                      "seed": seed, "engine": engine, "split": split, "wavelengths_nm": wl.tolist()}
+                      "seed": seed, "engine": engine, "integrator": integrator, "split": split, "wavelengths_nm": wl.tolist()}
     meta["preview_png"] = expo
     meta["files"] = {"spectral.exr": "radiance bands, W/(m2 sr nm) (continuous light) and flash bands, "
                                      "J/(m2 sr nm) per flash",

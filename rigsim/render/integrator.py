@@ -152,7 +152,7 @@ def with_integrator(ms, integrator):
         d[sh.id() or f"shape{i}"] = sh
     for i, e in enumerate(ms.scene.emitters()):
         d[f"emitter{i}"] = e
-    return dataclasses.replace(ms, scene=mi.load_dict(d))
+    return dataclasses.replace(ms, scene=mi.load_dict(d, optimize=False))
 
 
 # ---------------------------------------------------------------------------------------

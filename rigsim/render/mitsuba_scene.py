@@ -98,7 +98,7 @@ def water_medium_dict(water, *, albedo_zero: bool = False, phase=None) -> dict:
 
 
 def build_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: int = -1,
-                        rr_depth: int = 5, phase=None) -> MitsubaScene:
+                        rr_depth: int = 5, phase=None, integrator: str = "rigsim") -> MitsubaScene:
     """Load the Mitsuba scene of one render pass.
 
     Parameters
@@ -115,13 +115,17 @@ def build_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: 
     phase
         Replace the water's phase function by this Mitsuba phase (dict or object),
         e.g. ``{"type": "hg", "g": 0.9}`` for comparisons.
+    integrator
+        ``"rigsim"`` (equiangular sampling toward the lights, :mod:`rigsim.render.integrator`)
+        or ``"volpath"`` (Mitsuba's stock volumetric path tracer).
     """
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}")
     R = world_radius(scene)
     surfaces = mitsuba_surfaces(scene.camera, scene.targets)
-    d: dict = {"type": "scene",
-               "integrator": {"type": "volpath", "max_depth": int(max_depth), "rr_depth": int(rr_depth)}}
+    from rigsim.render.integrator import integrator_dict  # registers the rigsim_vol plugin
+
+    d: dict = {"type": "scene", "integrator": integrator_dict(integrator, max_depth=max_depth, rr_depth=rr_depth)}
     has_water = scene.water is not None and mode != "clear"
     if has_water:
         d[MEDIUM_KEY] = water_medium_dict(scene.water, albedo_zero=(mode == "direct"), phase=phase)

@@ -8,7 +8,7 @@ Camera rays are generated here (pinhole + dome/flat port, see
 four wavelengths (Mitsuba's spectral variants): the first is drawn stratified over
 the pixel's samples from the union of the bands (each band with probability 1/B,
 uniform inside it), the other three are rotated by 1/4, 2/4, 3/4 of that range.
-Mitsuba's ``volpath`` integrator returns the radiance at those four wavelengths and
+The integrator (``rigsim_vol`` by default, or Mitsuba's ``volpath``) returns the radiance at those four wavelengths and
 each value is added to the band it fell in; the band average is
 ``Σ L · B / (4 · spp)`` — an unbiased estimate of the radiance averaged over the
 band, W·m⁻²·sr⁻¹·nm⁻¹.  Sums are accumulated in float64 with numpy (deterministic:
@@ -273,7 +273,8 @@ def _light_meta(light) -> dict:
 def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, seed: int = 0,
            wavelengths_nm: Sequence[float] = DEFAULT_WAVELENGTHS_NM, bandwidth_nm=None,
            layers: Sequence[str] = ("range_m", "clear", "object_id"), split: bool = False,
-           max_depth: int = -1, progress: ProgressCallback | None = None) -> SpectralImage:
+           max_depth: int = -1, progress: ProgressCallback | None = None,
+           integrator: str = "rigsim") -> SpectralImage:
     """Render a :class:`~rigsim.scene.types.Scene` to a :class:`~rigsim.spectral_image.SpectralImage`.
 
     Parameters
@@ -297,6 +298,9 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
         Longest path (−1: unlimited, Russian roulette ends paths).
     progress
         Called as ``progress(fraction_done, message)`` after each kernel launch.
+    integrator
+        ``"rigsim"`` (default: equiangular sampling toward the lights with MIS, far less noise
+        in strobe-lit water; :mod:`rigsim.render.integrator`) or ``"volpath"`` (Mitsuba's own).
 
     Returns
     -------
@@ -357,7 +361,7 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
     dropped = 0
     geom_scene: MitsubaScene | None = None
     for pi, (g, m) in enumerate(passes):
-        ms = build_mitsuba_scene(scene, lights=groups[g], mode=m, max_depth=max_depth)
+        ms = build_mitsuba_scene(scene, lights=groups[g], mode=m, max_depth=max_depth, integrator=integrator)
         if geom_scene is None:
             geom_scene = ms
         img, nd = render_pass(ms, scene.camera, width=width, height=height, spp=spp, seed=seed, pass_index=pi,
@@ -387,7 +391,7 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
             out_layers[f"{prefix}{k}"] = v
     if "range_m" in layers or "object_id" in layers:
         if geom_scene is None:
-            geom_scene = build_mitsuba_scene(scene, lights=[], mode="clear")
+            geom_scene = build_mitsuba_scene(scene, lights=[], mode="clear", integrator=integrator)
         rng, oid = _geometry_layers(geom_scene, scene, width, height)
         if "range_m" in layers:
             out_layers["range_m"] = rng
@@ -396,7 +400,8 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
     legend = {str(i + 1): s.label for i, s in enumerate(geom_scene.surfaces)} if geom_scene else {}
 
     meta = {
-        "renderer": "rigsim.render (Mitsuba 3 volpath)",
+        "renderer": f"rigsim.render (Mitsuba 3, integrator {integrator})",
+        "integrator": integrator,
         "mitsuba_version": mi.__version__,
         "variant": variant(),
         "wavelength_nm": wl.tolist(),

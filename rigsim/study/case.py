@@ -58,7 +58,7 @@ def compute_case(spec: StudySpec, case: Case) -> dict:
     else:
         from rigsim.render import render as _render
 
-        si = _render(scene, width=rs.width, height=rs.height, spp=rs.spp, seed=seed,
+        si = _render(scene, width=rs.width, height=rs.height, spp=rs.spp, seed=seed, integrator=rs.integrator,
                      wavelengths_nm=rs.wavelengths_nm, layers=("range_m", "object_id", "backscatter"))
     masks = target_masks(np.asarray(si.layers["object_id"]), si.meta.get("object_ids", {}), target_kind)
     has_flash = "flash" in si.layers
@@ -67,7 +67,8 @@ def compute_case(spec: StudySpec, case: Case) -> dict:
             "c_550_per_m": float(water.c_per_m(550.0)), "b_550_per_m": float(water.b_per_m(550.0)),
             "a_550_per_m": float(water.a_per_m(550.0)),
             "width": rs.width, "height": rs.height, "spp": rs.spp if rs.engine != "preview" else None,
-            "engine": rs.engine, "case_id": spec.case_id(case)}
+            "engine": rs.engine, "integrator": rs.integrator if rs.engine != "preview" else None,
+            "case_id": spec.case_id(case)}
     base.update(scene_metrics(si, target_kind, masks=masks)[0])  # sensor-independent numbers
     files = {}
     rows = []

@@ -23,6 +23,7 @@
     spp = 64
     wavelengths = "400:700:10"
     engine = "mitsuba"      # or "preview"
+    integrator = "rigsim"   # or "volpath"
 
     [capture]
     exposure = "auto"       # or "manual" with iso, shutter_s
@@ -78,7 +79,7 @@ class RenderSettings:
     spp: int = 64
     wavelengths_nm: tuple[float, ...] = tuple(np.arange(400.0, 701.0, 10.0))
     engine: str = "mitsuba"
-    integrator: str | None = None
+    integrator: str = "rigsim"
 
 
 @dataclass(frozen=True)
@@ -280,12 +281,15 @@ def load_study(path: str | Path, *, quick: bool = False) -> StudySpec:
     engine = render.get("engine", "mitsuba")
     if engine not in ("mitsuba", "preview"):
         raise ConfigError(f"unknown engine {engine!r}", file=path, field="render.engine", allowed="mitsuba, preview")
+    integ = render.get("integrator", "rigsim")
+    if integ not in ("rigsim", "volpath"):
+        raise ConfigError(f"unknown integrator {integ!r}", file=path, field="render.integrator",
+                          allowed="rigsim (equiangular light sampling), volpath (Mitsuba's)")
     rs = RenderSettings(
         width=int(get_number(render, "width", file=path, prefix="render.", default=128, minimum=8, maximum=8192)),
         height=int(get_number(render, "height", file=path, prefix="render.", default=96, minimum=8, maximum=8192)),
         spp=int(get_number(render, "spp", file=path, prefix="render.", default=64, minimum=1, maximum=1 << 20)),
-        wavelengths_nm=tuple(float(x) for x in wls), engine=engine,
-        integrator=render.get("integrator"))
+        wavelengths_nm=tuple(float(x) for x in wls), engine=engine, integrator=integ)
 
     cap = doc.get("capture", {})
     mode = cap.get("exposure", "auto")
