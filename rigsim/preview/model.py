@@ -260,7 +260,7 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
     >>> sc = build_scene(load_rig("rigs/twin-strobes-45-wide.toml"), "coastal", "colorchecker", 2.0)
     >>> img = render_preview(sc, width=48, height=32)
     >>> img.radiance.shape, sorted(img.layers)
-    ((32, 48, 31), ['clear', 'flash', 'flash_clear', 'object_id', 'range_m'])
+    ((32, 48, 31), ['flash', 'flash_clear', 'object_id', 'range_m'])
     """
     t_start = time.perf_counter()
     width = _check_int("width", width, 1, 16384)
