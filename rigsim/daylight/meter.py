@@ -96,6 +96,10 @@ _ROULETTE_WEIGHT = 1e-3
 _ROULETTE_SURVIVAL = 0.1
 _MAX_EVENTS = 20_000
 _KD0_LAYER_M = 0.5
+#: Lines of sight with |cos θ| below this use the equilibrium layer estimate in the angular tally.
+_HORIZON_VZ = 0.1
+#: Half-thickness of that layer (m; at most half the depth and one attenuation length).
+_HORIZON_LAYER_M = 0.5
 
 
 @dataclass(frozen=True)
@@ -180,6 +184,8 @@ class AmbientResult:
     above: SurfaceIrradiance
     budget: dict[str, np.ndarray] = field(default_factory=dict)
     meta: dict = field(default_factory=dict)
+    #: The angular radiance tally (``angular_depth_m`` given): see :func:`ambient_light_monte_carlo`.
+    angular: dict = field(default_factory=dict)
 
     def __getitem__(self, name: str) -> np.ndarray:
         return self.values[name]
@@ -230,6 +236,17 @@ class _PhaseAt:
                 out[m] = comp.sample(u2[m])
         return out
 
+    def eval_fast(self, mu: np.ndarray, n: int = 4096) -> np.ndarray:
+        """:meth:`eval` by linear interpolation in x = sin(ψ/2) on ``n`` nodes (for the local estimate)."""
+        if getattr(self, "_lut", None) is None:
+            x = np.linspace(0.0, 1.0, n)
+            self._lut = np.asarray(self.eval(1.0 - 2.0 * x * x), float)
+        lut = self._lut
+        x = np.sqrt(np.clip(0.5 * (1.0 - mu), 0.0, 1.0)) * (lut.size - 1)
+        i = np.minimum(x.astype(np.int64), lut.size - 2)
+        f = x - i
+        return lut[i] * (1.0 - f) + lut[i + 1] * f
+
     def eval(self, mu: np.ndarray) -> np.ndarray:
         if self.mix is None:
             return np.asarray(self.phase.eval(mu, self.wl), float)
@@ -265,6 +282,142 @@ class _Tally:
         for k in ("reflected", "water_leaving", "absorbed_water", "absorbed_bottom", "lost"):
             setattr(self, k, np.zeros(self.batches))
 
+    def setup_angular(self, depth_m: float, n_theta: int, n_phi: int):
+        """Also tally the scattered radiance at ``depth_m`` in (θ, φ) bins of the *viewing* direction."""
+        self.ang_depth = float(depth_m)
+        self.n_theta, self.n_phi = int(n_theta), int(n_phi)
+        self.L_ang = np.zeros((self.batches, self.n_theta * self.n_phi))
+        self.beam_ang = np.zeros(self.batches)
+        # bin-centre viewing directions (meter frame: z down, the sun towards −x; the +φ half — the
+        # expected field is symmetric about the sun's plane, so one half is an unbiased estimate)
+        th = (np.arange(self.n_theta) + 0.5) * np.pi / self.n_theta
+        ph = (np.arange(self.n_phi) + 0.5) * np.pi / self.n_phi
+        T, P = np.meshgrid(th, ph, indexing="ij")
+        T, P = T.ravel(), P.ravel()
+        self.view = np.stack([-np.sin(T) * np.cos(P), -np.sin(T) * np.sin(P), -np.cos(T)], axis=-1)
+        self.L_local = np.zeros((self.batches, self.n_theta * self.n_phi))
+
+    def sun_phase(self, pf, d_sun, sub: int = 8):
+        """Bin-averaged phase function for light scattered out of the unscattered sun beam (per view bin)."""
+        nt, nph = self.n_theta, self.n_phi
+        g = (np.arange(sub) + 0.5) / sub
+        te = np.linspace(0, np.pi, nt + 1)
+        pe = np.linspace(0, np.pi, nph + 1)
+        mu = np.cos(te[:-1])[:, None] + (np.cos(te[1:]) - np.cos(te[:-1]))[:, None] * g[None, :]
+        ph = pe[:-1][:, None] + np.diff(pe)[:, None] * g[None, :]
+        MU = mu[:, None, :, None]
+        PH = ph[None, :, None, :]
+        st = np.sqrt(np.clip(1 - MU * MU, 0, 1))
+        # viewing direction v (meter frame) and propagation towards the detector −v
+        vx, vy, vz = -st * np.cos(PH), -st * np.sin(PH), -MU * np.ones_like(PH)
+        cos_psi = -(d_sun[0] * vx + d_sun[1] * vy + d_sun[2] * vz)
+        self.p_sun = pf.eval(np.clip(cos_psi, -1, 1)).mean(axis=(2, 3)).ravel()
+
+    def local_estimate(self, zc, d_in, wc, albedo, pf, c, nw, batch, unscattered_sun=None):
+        """Point (local) estimate of the scattered radiance seen from the angular plane along each bin centre.
+
+        A collision at depth z′ with weight w (before the albedo) adds
+        ``w (b/c) p(ψ) e^{−c s}/|v_z|`` to the radiance seen looking along v if z′ lies
+        on that line of sight, ``s = (z′ − z)/v_z``; lines of sight looking up are
+        continued by their mirror image in the surface (Fresnel reflectance, 1 beyond
+        the critical angle), ``s = (z + z′)/|v_z|``.
+        """
+        from rigsim.daylight.surface import fresnel_reflectance_unpolarised
+
+        za = self.ang_depth
+        V = self.view
+        nb = V.shape[0]
+        hor = np.abs(V[:, 2]) < _HORIZON_VZ
+        iu = np.flatnonzero((V[:, 2] < 0) & ~hor)  # looking up
+        idn = np.flatnonzero((V[:, 2] > 0) & ~hor)  # looking down
+        ih = np.flatnonzero(hor)  # lines of sight within a few degrees of the horizon
+        Vh = V[ih]
+        dl = min(_HORIZON_LAYER_M, 0.5 * za, 1.0 / max(c, 1e-9))
+        Vu, Vd = V[iu], V[idn]
+        inv_u = 1.0 / np.abs(Vu[:, 2])
+        inv_d = 1.0 / np.abs(Vd[:, 2])
+        Vm = Vu * np.array([1.0, 1.0, -1.0])  # mirror image of an upward line of sight
+        R = fresnel_reflectance_unpolarised(np.abs(Vu[:, 2]), nw, 1.0)
+        cut = 30.0
+        w_all = wc * albedo
+        out = np.zeros((self.batches, nb))
+
+        def add(rows, vals, cols):
+            out[:, cols] += np.stack([vals[batch[rows] == k].sum(axis=0) for k in range(self.batches)])
+
+        above = np.flatnonzero((zc < za) & (c * (za - zc) < cut))
+        below = np.flatnonzero((zc > za) & (c * (zc - za) < cut))
+        mir = np.flatnonzero(c * (za + zc) < cut)
+        layer = np.flatnonzero(np.abs(zc - za) < dl)
+        if ih.size and layer.size:
+            # near the horizon the line-of-sight estimate's 1/|v_z| weights are wild; there the radiance is
+            # the in-scattered source over c (equilibrium: L(h) does not change along a horizontal line),
+            # J = Σ w (b/c) p(ψ) / (layer thickness), from the collisions in a thin layer around the plane
+            for s0 in range(0, layer.size, 4096):
+                r = layer[s0:s0 + 4096]
+                vals = pf.eval_fast(np.clip(-(d_in[r] @ Vh.T), -1.0, 1.0))
+                if unscattered_sun is not None:
+                    us = unscattered_sun[r]
+                    if np.any(us):
+                        vals[us] = self.p_sun[ih][None, :]
+                vals *= (w_all[r] / (2.0 * dl * max(c, 1e-12)))[:, None]
+                add(r, vals, ih)
+        for rows, VV, inv, dist_sign, cols, extra in (
+                (above, Vu, inv_u, -1.0, iu, None),
+                (below, Vd, inv_d, 1.0, idn, None),
+                (mir, Vm, inv_u, None, iu, R)):
+            for s0 in range(0, rows.size, 4096):
+                r = rows[s0:s0 + 4096]
+                zr = zc[r]
+                if extra is None:
+                    dist = dist_sign * (zr - za)  # ≥ 0 vertical distance
+                else:
+                    dist = za + zr
+                vals = pf.eval_fast(np.clip(-(d_in[r] @ VV.T), -1.0, 1.0))
+                if unscattered_sun is not None and extra is None:
+                    # first scattering out of the sun beam: the bin-averaged phase function (keeps the forward peak)
+                    us = unscattered_sun[r]
+                    if np.any(us):
+                        vals[us] = self.p_sun[cols][None, :]
+                vals *= np.exp(-c * dist[:, None] * inv[None, :]) * inv[None, :]
+                if extra is not None:
+                    vals *= extra[None, :]
+                vals *= w_all[r][:, None]
+                add(r, vals, cols)
+        self.L_local += out
+
+    def local_bottom(self, H, wb, R_b, c, batch):
+        """Bottom hits: ``w R/π e^{−c (H − z)/|v_z|}`` for lines of sight looking down."""
+        vz = self.view[:, 2]
+        att = np.where(vz > 0, np.exp(-c * (H - self.ang_depth) / np.maximum(np.abs(vz), 1e-6)), 0.0)
+        per_b = np.bincount(batch, weights=wb * R_b / np.pi, minlength=self.batches)
+        self.L_local += per_b[:, None] * att[None, :]
+
+    def angular_crossings(self, z0, z1, d, w, batch, scattered):
+        """Crossings of the angular plane: scattered photons → Σ w/|μ| per bin, unscattered → the beam."""
+        za = self.ang_depth
+        moved = z1 != z0
+        hit = moved & (np.minimum(z0, z1) <= za) & (za <= np.maximum(z0, z1))
+        if not np.any(hit):
+            return
+        i = np.flatnonzero(hit)
+        di = d[i]
+        inv_mu = 1.0 / np.maximum(np.abs(di[:, 2]), _MU_FLOOR)
+        sc = scattered[i]
+        if np.any(~sc):
+            self.beam_ang += np.bincount(batch[i][~sc], weights=(w[i] * inv_mu)[~sc], minlength=self.batches)
+        if np.any(sc):
+            dd = di[sc]
+            # viewing direction v = −d; its zenith angle from the scene's up: cos θ_v = d_z (z points down)
+            th = np.arccos(np.clip(dd[:, 2], -1.0, 1.0))
+            # azimuth of v from the direction towards the sun (−x), folded to [0, π]
+            ph = np.arctan2(np.abs(dd[:, 1]), dd[:, 0])
+            it = np.minimum((th / np.pi * self.n_theta).astype(np.int64), self.n_theta - 1)
+            ip = np.minimum((ph / np.pi * self.n_phi).astype(np.int64), self.n_phi - 1)
+            nb = self.n_theta * self.n_phi
+            self.L_ang += np.bincount(batch[i][sc] * nb + it * self.n_phi + ip, weights=(w[i] * inv_mu)[sc],
+                                      minlength=self.batches * nb).reshape(self.L_ang.shape)
+
     def add(self, name: str, batch: np.ndarray, cols: np.ndarray | None, w: np.ndarray):
         arr = getattr(self, name)
         nd = self.depths.size
@@ -295,7 +448,7 @@ class _Tally:
 def _one_wavelength(wl: float, a: float, b: float, phase: PhaseFunction, e_sun: float, e_sky: float,
                     sky: SkyModel, sun_zenith_deg: float, surface: Surface, bottom: Bottom,
                     depths: np.ndarray, photons: int, batches: int, rng: np.random.Generator,
-                    lu_cone_half_angle_deg: float) -> tuple[_Tally, np.ndarray]:
+                    lu_cone_half_angle_deg: float, angular: tuple | None = None) -> tuple[_Tally, np.ndarray]:
     """Run one wavelength; tallies are in units of E(0+) per photon of each batch."""
     c = a + b
     albedo = b / c if c > 0 else 0.0
@@ -304,6 +457,8 @@ def _one_wavelength(wl: float, a: float, b: float, phase: PhaseFunction, e_sun: 
     R_b = float(bottom.reflectance)
     cone_cos = float(np.cos(np.radians(lu_cone_half_angle_deg)))
     tally = _Tally(batches, depths, cone_cos, 2.0 * np.pi * (1.0 - cone_cos))
+    if angular is not None:
+        tally.setup_angular(*angular)
     e0 = e_sun + e_sky
     n_batch = np.zeros(batches)
     if e0 <= 0 or photons <= 0:
@@ -326,7 +481,9 @@ def _one_wavelength(wl: float, a: float, b: float, phase: PhaseFunction, e_sun: 
     if n_sky:
         mu, phi = sky.sample(n_sky, rng)
         st = np.sqrt(np.clip(1.0 - mu * mu, 0.0, 1.0))
-        dirs.append(np.stack([-st * np.cos(phi), -st * np.sin(phi), mu], axis=-1))
+        # φ is measured from the sun's azimuth; the sun's photons travel along +x (the sun lies towards
+        # −x), so a sky element at φ sends photons along +(cos φ, sin φ) horizontally
+        dirs.append(np.stack([st * np.cos(phi), st * np.sin(phi), mu], axis=-1))
         weights.append(np.full(n_sky, (e_sky / e0) * photons / n_sky))
     d = np.concatenate(dirs)
     w = np.concatenate(weights)
@@ -345,8 +502,16 @@ def _one_wavelength(wl: float, a: float, b: float, phase: PhaseFunction, e_sun: 
     d, _ = refract(d, nrm, 1.0 / nw)
     d[:, 2] = np.maximum(np.abs(d[:, 2]), 1e-9)  # a steep facet's transmitted ray mirrored back down
     z = np.zeros(photons)
+    # photons that met a facet of a rough surface count as scattered (they left the beam direction)
+    scat = np.zeros(photons, bool) if surface.flat else np.ones(photons, bool)
+    sky_ph = np.zeros(photons, bool)
+    sky_ph[n_sun:] = True
+    scat[n_sun:] = True  # sky photons are diffuse light from the start
+    if angular is not None and n_sun:
+        tally.sun_phase(pf, d[0] if surface.flat else np.array([np.sin(np.arcsin(np.sin(ts) / nw)), 0.0,
+                                                                  np.cos(np.arcsin(np.sin(ts) / nw))]))
     keep = w > 0
-    z, d, w, batch = z[keep], d[keep], w[keep], batch[keep]
+    z, d, w, batch, scat, sky_ph = z[keep], d[keep], w[keep], batch[keep], scat[keep], sky_ph[keep]
 
     z_cut = np.inf
     if not np.isfinite(H):
@@ -365,6 +530,8 @@ def _one_wavelength(wl: float, a: float, b: float, phase: PhaseFunction, e_sun: 
         to_bot = z1 >= H
         z1 = np.where(to_surf, 0.0, np.where(to_bot, H, z1))
         tally.crossings(z, z1, dz, w, batch)
+        if angular is not None:
+            tally.angular_crossings(z, z1, d, w, batch, scat)
         z = z1
         coll = ~(to_surf | to_bot)
 
@@ -378,8 +545,11 @@ def _one_wavelength(wl: float, a: float, b: float, phase: PhaseFunction, e_sun: 
                 p_up = pf.eval(-d[ic, 2])
                 contrib = wc[r] * albedo * p_up[r] * np.exp(-c * (zc[r] - depths[col]))
                 tally.add("Lu_point", batch[ic][r], col, contrib)
+            if angular is not None:
+                tally.local_estimate(zc, d[ic], wc, albedo, pf, c, nw, batch[ic], ~scat[ic] & ~sky_ph[ic])
             tally.add("absorbed_water", batch[ic], None, wc * (1.0 - albedo))
             w[ic] = wc * albedo
+            scat[ic] = True
             cos_t = pf.sample(rng.random(ic.size))
             d[ic] = _rotate(d[ic], cos_t, 2.0 * np.pi * rng.random(ic.size))
 
@@ -397,6 +567,7 @@ def _one_wavelength(wl: float, a: float, b: float, phase: PhaseFunction, e_sun: 
             w[out] = 0.0
             ir = i_s[refl]
             if ir.size:
+                scat[ir] = True
                 d[ir] = ds[refl] - 2.0 * np.sum(ds[refl] * nrm[refl], axis=1, keepdims=True) * nrm[refl]
 
         # -- the bottom
@@ -407,8 +578,11 @@ def _one_wavelength(wl: float, a: float, b: float, phase: PhaseFunction, e_sun: 
                 r, col = np.nonzero(np.ones((ib.size, depths.size), bool))
                 contrib = wb[r] * R_b / np.pi * np.exp(-c * (H - depths[col]))
                 tally.add("Lu_point", batch[ib][r], col, contrib)
+            if angular is not None and R_b > 0:
+                tally.local_bottom(H, wb, R_b, c, batch[ib])
             tally.add("absorbed_bottom", batch[ib], None, wb * (1.0 - R_b))
             w[ib] = wb * R_b
+            scat[ib] = True
             mu = np.sqrt(rng.random(ib.size))
             phi = 2.0 * np.pi * rng.random(ib.size)
             st = np.sqrt(1.0 - mu * mu)
@@ -430,7 +604,7 @@ def _one_wavelength(wl: float, a: float, b: float, phase: PhaseFunction, e_sun: 
 
         alive = w > 0
         if not np.all(alive):
-            z, d, w, batch = z[alive], d[alive], w[alive], batch[alive]
+            z, d, w, batch, scat, sky_ph = z[alive], d[alive], w[alive], batch[alive], scat[alive], sky_ph[alive]
     if w.size:
         tally.add("lost", batch, None, w)
     return tally, n_batch
@@ -440,7 +614,9 @@ def ambient_light_monte_carlo(water: Water, wavelength_nm, depth_m, *, sun_zenit
                               sky: str | SkyModel = "cie", above: SurfaceIrradiance | None = None,
                               surface: Surface | None = None, bottom: Bottom | None = None,
                               photons: int = DEFAULT_PHOTONS, batches: int = 10, seed: int = 0,
-                              lu_method: str = "point", lu_cone_half_angle_deg: float = 10.0) -> AmbientResult:
+                              lu_method: str = "point", lu_cone_half_angle_deg: float = 10.0,
+                              angular_depth_m: float | None = None, n_theta: int = 36,
+                              n_phi: int = 6) -> AmbientResult:
     """Ambient daylight at depth by Monte Carlo through the water column (see module docstring).
 
     Parameters
@@ -474,6 +650,29 @@ def ambient_light_monte_carlo(water: Water, wavelength_nm, depth_m, *, sun_zenit
         ``"point"`` (next-event estimator, default) or ``"cone"``.
     lu_cone_half_angle_deg
         Half-angle of the cone estimator, deg.
+    angular_depth_m
+        Also tally the angular radiance distribution at this depth (m, > 0): the
+        result's ``angular`` dict holds ``radiance`` (n_wavelength, n_theta, n_phi),
+        W·m⁻²·sr⁻¹·nm⁻¹, the radiance *seen looking* in bins of the viewing
+        direction's zenith angle θ (from straight up, ``theta_edges_rad``, uniform in
+        θ) and of its azimuth from the direction towards the sun (``phi_edges_rad``,
+        uniform on [0, π], the field being symmetric about the sun's vertical plane);
+        only photons that were scattered (by the water, the bottom, a rough surface or
+        an internal reflection) count — the unscattered sun beam is a delta, tallied
+        as ``beam_normal`` (irradiance normal to the beam).  Estimator: every
+        crossing of the plane adds ``w/|μ|`` to its bin, divided by the bin's solid
+        angle, so ``Σ L ΔΩ + beam_normal`` is exactly the scalar irradiance Eo
+        (unscattered sky light counts as diffuse here).  ``radiance_scattered``:
+        the light scattered at least once (by the water or the bottom) seen along
+        each bin's centre directions, by a point (local) estimate — every collision
+        adds its expected in-scattered radiance along the line of sight (continued
+        by its mirror image in the surface), every bottom hit its Lambertian
+        radiance — smooth and of low variance even at the horizon, where plane
+        crossings are rare; it excludes the unscattered sky seen through Snell's
+        window (:func:`rigsim.daylight.field.angular_field_monte_carlo` adds it).
+        Standard errors (``*_stderr``) as for the other quantities.
+    n_theta, n_phi
+        Bins of the angular tally.
     """
     wl = np.atleast_1d(water.check_range(as_wavelengths(wavelength_nm)))
     bottom = bottom or Bottom()
@@ -498,6 +697,19 @@ def ambient_light_monte_carlo(water: Water, wavelength_nm, depth_m, *, sun_zenit
     if isinstance(sky, BlackSky) and np.any(above.sky > 0):
         raise ConfigError("a black sky cannot carry sky irradiance; use --sky uniform or cie", field="sky")
 
+    angular = None
+    if angular_depth_m is not None:
+        za = float(angular_depth_m)
+        if not np.isfinite(za) or za <= 0 or (bottom.depth_m is not None and za >= bottom.depth_m):
+            raise ConfigError(f"angular tally depth must be > 0 m and above the bottom, got {angular_depth_m}",
+                              field="angular_depth_m")
+        if int(n_theta) < 2 or int(n_theta) % 2 or int(n_phi) < 1:
+            raise ConfigError("need an even n_theta >= 2 (a bin edge at the horizon) and n_phi >= 1",
+                              field="n_theta")
+        angular = (za, int(n_theta), int(n_phi))
+        ang_b = np.zeros((batches, wl.size, int(n_theta) * int(n_phi)))
+        loc_b = np.zeros((batches, wl.size, int(n_theta) * int(n_phi)))
+        beam_b = np.zeros((batches, wl.size))
     kd0_depth = _KD0_LAYER_M if bottom.depth_m is None else min(_KD0_LAYER_M, float(bottom.depth_m))
     all_depths = np.concatenate([depths, [0.0, kd0_depth]])
     n_d = depths.size
@@ -511,7 +723,7 @@ def ambient_light_monte_carlo(water: Water, wavelength_nm, depth_m, *, sun_zenit
         tally, nb = _one_wavelength(float(lam), float(a_all[j]), float(b_all[j]), water.phase,
                                     float(above.sun[j]), float(above.sky[j]), sky, float(sun_zenith_deg),
                                     surface, bottom, all_depths, photons, batches, rng,
-                                    float(lu_cone_half_angle_deg))
+                                    float(lu_cone_half_angle_deg), angular)
         e0 = float(above.total[j])
         scale = e0 / nb[:, None]
         per_batch["Ed"][:, :, j] = tally.Ed * scale
@@ -521,7 +733,27 @@ def ambient_light_monte_carlo(water: Water, wavelength_nm, depth_m, *, sun_zenit
         per_batch["Lu"][:, :, j] = (tally.Lu_point if lu_method == "point" else tally.Lu_cone) * scale
         for k in budget_b:
             budget_b[k][:, j] = getattr(tally, k) / nb
+        if angular is not None:
+            ang_b[:, j, :] = tally.L_ang * scale
+            loc_b[:, j, :] = tally.L_local * scale
+            beam_b[:, j] = tally.beam_ang * scale[:, 0]
     elapsed = time.perf_counter() - t0
+    ang_out: dict = {}
+    if angular is not None:
+        za, nt, nph = angular
+        te = np.linspace(0.0, np.pi, nt + 1)
+        pe = np.linspace(0.0, np.pi, nph + 1)
+        # solid angle of a bin: both halves φ ∈ ±[φ0, φ1] (the field is folded about the sun's plane)
+        d_omega = (2.0 * np.diff(pe))[None, :] * (np.cos(te[:-1]) - np.cos(te[1:]))[:, None]
+        rad_b = ang_b.reshape(batches, wl.size, nt, nph) / d_omega
+        loc = loc_b.reshape(batches, wl.size, nt, nph)
+        ang_out = {"depth_m": za, "theta_edges_rad": te, "phi_edges_rad": pe, "solid_angle_sr": d_omega,
+                   "radiance": rad_b.mean(axis=0),
+                   "radiance_stderr": rad_b.std(axis=0, ddof=1) / np.sqrt(batches),
+                   "radiance_scattered": loc.mean(axis=0),
+                   "radiance_scattered_stderr": loc.std(axis=0, ddof=1) / np.sqrt(batches),
+                   "beam_normal": beam_b.mean(axis=0),
+                   "beam_normal_stderr": beam_b.std(axis=0, ddof=1) / np.sqrt(batches)}
 
     per_batch["Eo"] = per_batch["Eod"] + per_batch["Eou"]
     values, stderr = {}, {}
@@ -563,4 +795,6 @@ def ambient_light_monte_carlo(water: Water, wavelength_nm, depth_m, *, sun_zenit
         "kd": "layer mean -ln(Ed(z)/Ed(0-))/z; at z=0 over the top %g m" % kd0_depth,
         "seconds": round(elapsed, 3),
     }
-    return AmbientResult(wl, depths, values, stderr, above, budget, meta)
+    if angular is not None:
+        meta["angular"] = {"depth_m": angular[0], "n_theta": angular[1], "n_phi": angular[2]}
+    return AmbientResult(wl, depths, values, stderr, above, budget, meta, ang_out)

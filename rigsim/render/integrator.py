@@ -390,6 +390,13 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                               field="integrator.light_directed")
         self._checked: dict[int, tuple] = {}
         self._tables: dict[int, tuple] = {}
+        self.ambient = None
+
+    def set_ambient(self, tables, world_radius_m: float = 1000.0) -> "RigsimVolIntegrator":
+        """Light the scene with a daylight field too (:class:`~rigsim.render.daylight.AmbientTables`, or None)."""
+        self.ambient = tables
+        self._world_radius = float(world_radius_m)
+        return self
 
     def _phase_table(self, phase):
         """The ψ table of a rigsim water phase function (None for other phase functions)."""
@@ -619,12 +626,102 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
             active &= cont
             return sampler, active, depth, o_next, d_next, beta, L
 
-        state = (sampler, active, mi.UInt32(0), mi.Point3f(ray.o), mi.Vector3f(ray.d),
+        if emitters or self.ambient is None:
+            state = (sampler, active, mi.UInt32(0), mi.Point3f(ray.o), mi.Vector3f(ray.d),
+                     mi.Spectrum(1.0), mi.Spectrum(0.0))
+            state = dr.while_loop(state, cond, body, labels=("sampler", "active", "depth", "o", "d", "beta", "L"),
+                                  label="rigsim_vol")
+            L = state[-1]
+        else:
+            L = mi.Spectrum(0.0)
+        if self.ambient is not None:
+            L = L + self._ambient_sample(scene, sampler, ray, medium, active)
+        return L, mi.Bool(True), []
+
+    # -- daylight ---------------------------------------------------------------------------
+    def _ambient_sample(self, scene, sampler, ray, medium, active):
+        """Radiance from the daylight field along ``ray`` (see :mod:`rigsim.render.daylight`).
+
+        A chain of surface bounces only (the water's own scattering of daylight is in the
+        field): each segment from o along d that meets an object at t adds the field's path
+        radiance ``L_amb(d; y_o)(1 − e^{−(c − K d_y) t})`` (all of ``L_amb`` if it meets
+        nothing), each surface the sun beam by next-event estimation (shadow ray to the sea
+        surface, caustics), and the path goes on by BSDF sampling with weight ``e^{−c t}``.
+        The camera segment carries path radiance only if the water scatters (not in the
+        ``direct`` pass) and no attenuation in the ``clear`` pass (no medium).
+        """
+        A = self.ambient
+        wavelengths = ray.wavelengths
+        time = ray.time
+        idx = A.index(wavelengths)
+        c = A.spec(A.c, idx)
+        kd = A.spec(A.k_diffuse, idx)
+        kb = A.spec(A.k_beam, idx)
+        e_beam = A.spec(A.beam, idx)
+        y0, y_surf = A.y0, A.y_surface
+        w_sun = mi.Vector3f(*[-x for x in A.sun_dir])  # towards the sun
+        has_medium = medium is not None
+        if has_medium:
+            mei0 = self._medium_interaction(ray.o, ray.d, mi.Float(0.0), wavelengths, time, mi.MediumPtr(medium))
+            sigma_s, _, _ = medium.get_scattering_coefficients(mei0, active)
+            cam_scatters = dr.any(mi.Spectrum(sigma_s) > 0.0)
+        else:
+            cam_scatters = mi.Bool(False)
+        max_depth = self.max_depth if self.max_depth >= 0 else 2**31
+        max_bounce = 8
+        r_max = 0.5 * getattr(self, "_world_radius", 1000.0)
+        bsdf_ctx = mi.BSDFContext()
+
+        def cond(sampler, active, depth, o, d, beta, L):
+            return active
+
+        def body(sampler, active, depth, o, d, beta, L):
+            first = depth == 0
+            rr = depth > 2
+            q = dr.minimum(dr.max(beta), 0.95)
+            active &= (sampler.next_1d(active) < q) | ~rr
+            beta = dr.select(rr & active, beta / q, beta)
+            r = mi.Ray3f(o, d, time, wavelengths)
+            si = scene.ray_intersect(r, active)
+            bsdf = si.bsdf(r)
+            hit = active & si.is_valid() & ~mi.has_flag(bsdf.flags(), mi.BSDFFlags.Null)
+            t_s = dr.select(hit, si.t, dr.inf)
+            # the field's path radiance along the segment (Duntley)
+            k_eff = dr.maximum(c - kd * d.y, 0.05 * c)
+            frac = dr.select(hit, 1.0 - dr.exp(-k_eff * dr.minimum(t_s, 1e30)), 1.0)
+            l_look = A.radiance(d, idx) * dr.exp(kd * (o.y - y0))
+            if has_medium:
+                emit = active & (~first | cam_scatters)
+            else:
+                emit = active & ~first
+            L += dr.select(emit, beta * l_look * frac, 0.0)
+            # surfaces: attenuation to the surface, sun beam by next-event estimation
+            water_seg = mi.Bool(True) if has_medium else ~first
+            beta = dr.select(water_seg, beta * dr.exp(-c * dr.select(hit, t_s, 0.0)), beta)
+            surf = hit & (depth + 1 < max_depth)
+            y = dr.minimum(si.p.y, y_surf)
+            e_y = e_beam * dr.exp(kb * (y - y0)) * A.caustic(si.p)
+            sr = si.spawn_ray(w_sun)
+            sr.maxt = dr.minimum((y_surf - y) / dr.maximum(w_sun.y, 1e-6), r_max)
+            occluded = scene.ray_test(sr, surf)
+            f = bsdf.eval(bsdf_ctx, si, si.to_local(w_sun), surf)
+            L += dr.select(surf & ~occluded, beta * f * e_y, 0.0)
+            # diffuse field: BSDF sampling, the next segment looks it up
+            bs, bw = bsdf.sample(bsdf_ctx, si, sampler.next_1d(surf), sampler.next_2d(surf), surf)
+            cont = surf & (bs.pdf > 0) & (depth + 1 < max_bounce)
+            beta = dr.select(cont, beta * bw, beta)
+            r_s = si.spawn_ray(si.to_world(bs.wo))
+            o = dr.select(cont, r_s.o, o)
+            d = dr.select(cont, r_s.d, d)
+            depth = dr.select(cont, depth + 1, depth)
+            active = cont & dr.any(beta != 0.0)
+            return sampler, active, depth, o, d, beta, L
+
+        state = (sampler, mi.Bool(active), mi.UInt32(0), mi.Point3f(ray.o), mi.Vector3f(ray.d),
                  mi.Spectrum(1.0), mi.Spectrum(0.0))
         state = dr.while_loop(state, cond, body, labels=("sampler", "active", "depth", "o", "d", "beta", "L"),
-                              label="rigsim_vol")
-        L = state[-1]
-        return L, mi.Bool(True), []
+                              label="rigsim_vol_daylight")
+        return state[-1]
 
     def aov_names(self):
         return []

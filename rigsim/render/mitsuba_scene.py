@@ -98,7 +98,8 @@ def water_medium_dict(water, *, albedo_zero: bool = False, phase=None) -> dict:
 
 
 def build_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: int = -1,
-                        rr_depth: int = 5, phase=None, integrator: str = "rigsim") -> MitsubaScene:
+                        rr_depth: int = 5, phase=None, integrator: str = "rigsim",
+                        ambient=None) -> MitsubaScene:
     """Load the Mitsuba scene of one render pass.
 
     Parameters
@@ -118,6 +119,9 @@ def build_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: 
     integrator
         ``"rigsim"`` (equiangular sampling toward the lights, :mod:`rigsim.render.integrator`)
         or ``"volpath"`` (Mitsuba's stock volumetric path tracer).
+    ambient
+        Daylight field tables (:func:`rigsim.render.daylight.ambient_tables`) lighting this
+        pass as well (rigsim integrator only), or None.
     """
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}")
@@ -150,6 +154,12 @@ def build_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: 
         raise
     except Exception as e:  # noqa: BLE001 - turn Mitsuba's parser errors into one line
         raise ConfigError(f"cannot build the Mitsuba scene: {str(e).splitlines()[0][:300]}") from None
+    if ambient is not None:
+        integ = loaded.integrator()
+        if not hasattr(integ, "set_ambient"):
+            raise ConfigError("daylight is rendered by the rigsim integrator only", field="integrator",
+                              allowed="rigsim")
+        integ.set_ambient(ambient, R)
     medium = None
     shape_ids = {s.key: i + 1 for i, s in enumerate(surfaces)}
     for sh in loaded.shapes():

@@ -305,8 +305,9 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
     Returns
     -------
     SpectralImage
-        ``radiance`` in W·m⁻²·sr⁻¹·nm⁻¹ from continuous lights (zeros if there are
-        none); strobes go to ``flash`` (J·m⁻²·sr⁻¹·nm⁻¹ per flash) and
+        ``radiance`` in W·m⁻²·sr⁻¹·nm⁻¹ from continuous lights and ambient daylight
+        (``scene.daylight``: the field at the rig's depth, :mod:`rigsim.render.daylight`;
+        zeros if there is neither); strobes go to ``flash`` (J·m⁻²·sr⁻¹·nm⁻¹ per flash) and
         ``flash_clear``/``flash_direct``/``flash_backscatter``.
     """
     t_start = time.perf_counter()
@@ -326,9 +327,14 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
     if not is_jit():
         raise RigsimError(f"rendering needs a vectorised Mitsuba variant (llvm_ad_spectral or cuda_ad_spectral); "
                           f"only {variant()} is available — install libLLVM (e.g. `apt install libllvm19`)")
+    ambient = None
     if scene.daylight is not None:
-        warnings.warn("daylight is not rendered by rigsim.render yet; only the rig's lights are",
-                      RuntimeWarning, stacklevel=2)
+        from rigsim.render.daylight import ambient_tables
+
+        if integrator != "rigsim":
+            raise ConfigError("daylight is rendered by the rigsim integrator only", field="integrator",
+                              allowed="rigsim")
+        ambient = ambient_tables(scene, float(lo_edges[0]), float(wl[-1] + bw[-1] / 2), seed=seed)
     camera_frame(scene.camera)  # validates forward/up
     if abs(width / height - scene.camera.sensor_width_mm / scene.camera.sensor_height_mm) > 0.02 * width / height:
         warnings.warn(f"image aspect {width}x{height} differs from the sensor's "
@@ -345,7 +351,9 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
     modes = ["full"]
     if water:
         modes += [m for m in ("clear", "direct", "backscatter") if m in layers]
-    passes = [(g, m) for g in ("continuous", "strobe") if groups[g] for m in modes]
+    # daylight is continuous light: it lights the continuous pass (never the flash pass)
+    has = {"continuous": bool(groups["continuous"]) or ambient is not None, "strobe": bool(groups["strobe"])}
+    passes = [(g, m) for g in ("continuous", "strobe") if has[g] for m in modes]
     per_pass = _n_chunks(width, height, spp)
     total = max(1, len(passes) * per_pass)
     done = [0]
@@ -361,7 +369,8 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
     dropped = 0
     geom_scene: MitsubaScene | None = None
     for pi, (g, m) in enumerate(passes):
-        ms = build_mitsuba_scene(scene, lights=groups[g], mode=m, max_depth=max_depth, integrator=integrator)
+        ms = build_mitsuba_scene(scene, lights=groups[g], mode=m, max_depth=max_depth, integrator=integrator,
+                                 ambient=ambient if g == "continuous" else None)
         if geom_scene is None:
             geom_scene = ms
         img, nd = render_pass(ms, scene.camera, width=width, height=height, spp=spp, seed=seed, pass_index=pi,
@@ -376,7 +385,7 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
     out_layers: dict[str, np.ndarray] = {}
     radiance = results.get(("continuous", "full"), zeros)
     for g, prefix in (("continuous", ""), ("strobe", "flash_")):
-        if not groups[g]:
+        if not has[g]:
             continue
         full = results[(g, "full")]
         if g == "strobe":
@@ -419,10 +428,13 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
         "radiance_reference": "in-water radiance arriving at the port, band-averaged (no port "
                               "transmission or n^2 factor)",
         "dropped_samples": dropped,
-        "daylight_rendered": False if scene.daylight is not None else None,
+        "daylight_rendered": True if scene.daylight is not None else None,
+        "daylight": ({**dataclasses.asdict(scene.daylight), "field": ambient.meta}
+                     if ambient is not None else None),
     }
     meta["scene_hash"] = hashlib.sha256(json.dumps(
-        {k: meta[k] for k in ("water", "camera", "lights", "targets")}, sort_keys=True,
+        {k: meta[k] for k in ("water", "camera", "lights", "targets")
+         + (("daylight",) if scene.daylight is not None else ())}, sort_keys=True,
         default=str).encode()).hexdigest()[:16]
     meta["wall_time_s"] = time.perf_counter() - t_start
     return SpectralImage(radiance=radiance, wavelength_nm=wl, bandwidth_nm=bw, layers=out_layers, meta=meta)

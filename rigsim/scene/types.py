@@ -230,6 +230,18 @@ class Daylight:
         Plane irradiance just above the surface, W/(m²·nm).
     model
         ``"kd"`` (fast: Kd attenuation) or ``"monte-carlo"`` (through the water column).
+    sky
+        Sky radiance model above the sea: ``"cie"`` (CIE clear sky for the sun),
+        ``"cie:N"``, ``"uniform"`` or ``"black"`` (:func:`rigsim.daylight.sky_model`).
+    photons
+        Photons per wavelength of the Monte Carlo field (``model="monte-carlo"``).
+    waves
+        Surface for caustics on the sun beam: ``"flat"`` (none), ``"sines"`` (one
+        sine wave of ``wave_amplitude_m``, ``wave_length_m``, ``wave_direction_deg``)
+        or ``"pierson-moskowitz"`` (a wind sea of ``wind_speed_m_s`` towards
+        ``wave_direction_deg``).
+    wind_speed_m_s, wave_amplitude_m, wave_length_m, wave_direction_deg
+        Wave parameters (m/s, m, m, deg from +z towards +x).
     """
 
     depth_m: float
@@ -238,6 +250,13 @@ class Daylight:
     surface_irradiance_wavelength_nm: tuple[float, ...] = ()
     surface_irradiance: tuple[float, ...] = ()
     model: Literal["kd", "monte-carlo"] = "kd"
+    sky: str = "cie"
+    photons: int = 20_000
+    waves: Literal["flat", "sines", "pierson-moskowitz"] = "flat"
+    wind_speed_m_s: float = 5.0
+    wave_amplitude_m: float = 0.05
+    wave_length_m: float = 1.0
+    wave_direction_deg: float = 0.0
 
 
 @dataclass(frozen=True, eq=False)
