@@ -5,6 +5,6 @@
 """
 
 from rigsim.config.reader import Section, read_toml
-from rigsim.config.rig import camera_basis, load_rig, parse_rig
+from rigsim.config.rig import load_rig, parse_rig
 
-__all__ = ["Section", "read_toml", "camera_basis", "load_rig", "parse_rig"]
+__all__ = ["Section", "read_toml", "load_rig", "parse_rig"]

@@ -26,7 +26,7 @@ from rigsim.light.photometry import XENON_FLASH_EFFICACY_LM_S_PER_J
 from rigsim.light.sources import strobe_light, video_light
 from rigsim.scene.types import BeamPattern, Camera, Light, Port, Rig
 
-__all__ = ["load_rig", "parse_rig", "camera_basis"]
+__all__ = ["load_rig", "parse_rig"]
 
 _TOP = ("rig", "camera", "port", "lights")
 _RIG = ("name", "description")
@@ -40,22 +40,6 @@ _STROBE_ONLY = ("flash_energy_J", "guide_number_m", "guide_number_iso", "luminou
                 "power_fraction")
 _VIDEO_ONLY = ("lumens",)
 _DEFAULT_SPECTRUM = {"strobe": "xenon-strobe", "video": "daylight-led"}
-
-
-def camera_basis(camera: Camera) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Orthonormal ``(right, up, forward)`` of a camera in world coordinates.
-
-    ``forward`` is the normalised viewing direction, ``up`` the camera's up
-    orthogonalised against it, ``right = forward × up`` (the image's right in a
-    right-handed world).
-    """
-    f = np.asarray(camera.forward, float)
-    f = f / np.linalg.norm(f)
-    u = np.asarray(camera.up, float)
-    u = u - f * np.dot(u, f)
-    u = u / np.linalg.norm(u)
-    r = np.cross(f, u)
-    return r, u, f
 
 
 def load_rig(path: str | Path) -> Rig:
@@ -214,7 +198,7 @@ def _parse_light(s: Section, index: int, camera: Camera, base: Path) -> Light:
     spectrum = s.string("spectrum", _DEFAULT_SPECTRUM[kind])
 
     # --- to world
-    r, u, f = camera_basis(camera)
+    r, u, f = camera.frame()
     world_pos = np.asarray(camera.position_m) + local_pos[0] * r + local_pos[1] * u + local_pos[2] * f
     world_aim = local_aim[0] * r + local_aim[1] * u + local_aim[2] * f
     world_aim = world_aim / np.linalg.norm(world_aim)

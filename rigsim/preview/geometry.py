@@ -19,21 +19,16 @@ import numpy as np
 
 from rigsim.errors import ConfigError
 from rigsim.scene.targets import Surface, target_surfaces
-from rigsim.scene.types import Camera, Scene, unit
+from rigsim.scene.types import Camera, Scene
 
 __all__ = ["camera_frame", "camera_rays", "pixel_grid_rays", "SceneSurfaces", "scene_surfaces",
            "cast_rays", "occluded", "angular_pitch_rad"]
 
 
 def camera_frame(camera: Camera) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(forward, right, up) as :func:`rigsim.render.camera.camera_frame`."""
-    f = unit(camera.forward)
-    u = np.asarray(camera.up, float)
-    u = u - f * np.dot(u, f)
-    if np.linalg.norm(u) < 1e-9:
-        raise ConfigError("camera up is parallel to its forward direction", field="camera.up")
-    u = u / np.linalg.norm(u)
-    return f, np.cross(f, u), u
+    """``(forward, right, up)``: :meth:`rigsim.scene.types.Camera.frame` in the order the ray code uses."""
+    r, u, f = camera.frame()
+    return f, r, u
 
 
 def camera_rays(camera: Camera, px, py, *, n_water: float) -> tuple[np.ndarray, np.ndarray]:

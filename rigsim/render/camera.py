@@ -27,9 +27,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from rigsim.errors import ConfigError
 from rigsim.render.variant import mitsuba
-from rigsim.scene.types import Camera, unit
+from rigsim.scene.types import Camera
 from rigsim.water.kd import WATER_INDEX
 
 __all__ = ["camera_frame", "flat_port_angle_water", "fov_water_deg", "generate_rays", "tan_half_fov"]
@@ -38,14 +37,9 @@ mi, dr = mitsuba()
 
 
 def camera_frame(camera: Camera) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(forward, right, up) unit vectors: ``up`` made orthogonal to ``forward``, ``right = forward × up``."""
-    f = unit(camera.forward)
-    u = np.asarray(camera.up, float)
-    u = u - f * np.dot(u, f)
-    if np.linalg.norm(u) < 1e-9:
-        raise ConfigError("camera up is parallel to its forward direction", field="camera.up")
-    u = u / np.linalg.norm(u)
-    return f, np.cross(f, u), u
+    """``(forward, right, up)``: :meth:`rigsim.scene.types.Camera.frame` in the order the ray code uses."""
+    r, u, f = camera.frame()
+    return f, r, u
 
 
 def tan_half_fov(camera: Camera, width: int, height: int) -> tuple[float, float]:

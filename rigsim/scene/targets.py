@@ -78,7 +78,6 @@ __all__ = [
     "project_to_image",
     "pixel_directions",
     "pixel_rays",
-    "camera_frame",
     "mesh_vertices",
 ]
 
@@ -220,16 +219,6 @@ class Surface:
         return np.array([c + a * u + b * v for a, b in corners])
 
 
-def camera_frame(camera: Camera) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(right, up, forward)`` unit vectors of a camera (``right = forward × up``)."""
-    f = np.asarray(camera.forward, float)
-    f = f / np.linalg.norm(f)
-    u = np.asarray(camera.up, float)
-    u = u - f * np.dot(u, f)
-    u = u / np.linalg.norm(u)
-    return np.cross(f, u), u, f
-
-
 def _affine(center, ax, ay, az) -> tuple[tuple[float, ...], ...]:
     m = np.eye(4)
     m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = ax, ay, az, center
@@ -275,7 +264,7 @@ def target_surfaces(target: Target, camera: Camera) -> tuple[Surface, ...]:
         patches (chart order); disks: one disk; slanted edge: ``black`` (left)
         and ``white`` (right); bottom: one rectangle; mesh: one mesh.
     """
-    right, up, fwd = camera_frame(camera)
+    right, up, fwd = camera.frame()
     pupil = np.asarray(camera.position_m, float)
     toward = -fwd
     a = np.radians(target.tilt_deg)
@@ -471,7 +460,7 @@ def project_to_image(camera: Camera, points_m, width: int, height: int, *,
     (standoff, thickness, glass index) into the water, it passes through the
     point — the same exact geometry as the renderer's camera.
     """
-    right, up, fwd = camera_frame(camera)
+    right, up, fwd = camera.frame()
     d = np.asarray(points_m, float) - np.asarray(camera.position_m, float)
     x, y, z = d @ right, d @ up, d @ fwd
     rho = np.hypot(x, y)
@@ -503,7 +492,7 @@ def pixel_rays(camera: Camera, width: int, height: int, *,
     Dome: origin at the pupil, direction unchanged.  Flat port: the ray is
     refracted air → glass → water and starts on the window's outer face.
     """
-    right, up, fwd = camera_frame(camera)
+    right, up, fwd = camera.frame()
     cols = (np.arange(width) + 0.5) / width - 0.5
     rows = 0.5 - (np.arange(height) + 0.5) / height
     xm = cols[None, :] * camera.sensor_width_mm
@@ -614,7 +603,7 @@ def target_layout(scene: Scene, width: int, height: int, *, target_index: int = 
         label = np.where(hit, s.object_id, label)
     polygons = {}
     centers = {}
-    right, up, fwd = camera_frame(camera)
+    right, up, fwd = camera.frame()
     for s in surfaces:
         centers[s.name] = project_to_image(camera, np.asarray(s.center_m), width, height, water_index=n_w)
         if s.shape == "mesh":

@@ -91,6 +91,27 @@ class Camera:
     port: Port = field(default_factory=Port)
     housing_radius_m: float = 0.12
 
+    def frame(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Orthonormal ``(right, up, forward)`` in world coordinates.
+
+        ``forward`` is the normalised viewing direction, ``up`` the camera's up made
+        orthogonal to it, ``right = forward × up`` (the image's right in a right-handed
+        world: −x for the default camera looking along +z with +y up).
+        """
+        from rigsim.errors import ConfigError
+
+        f = np.asarray(self.forward, float)
+        nf = np.linalg.norm(f)
+        if not np.isfinite(nf) or nf == 0:
+            raise ConfigError("camera forward must be a non-zero vector", field="camera.forward")
+        f = f / nf
+        u = np.asarray(self.up, float)
+        u = u - f * np.dot(u, f)
+        if np.linalg.norm(u) < 1e-9:
+            raise ConfigError("camera up is parallel to its forward direction", field="camera.up")
+        u = u / np.linalg.norm(u)
+        return np.cross(f, u), u, f
+
     @property
     def fov_air_x_deg(self) -> float:
         """Horizontal field of view in air (deg)."""

@@ -120,10 +120,10 @@ def scene_parts(scene: Scene, *, water_rgb: tuple[float, float, float] | None = 
     import pyvista as pv
 
     from rigsim.render.camera import fov_water_deg
-    from rigsim.scene.targets import camera_frame, target_surfaces
+    from rigsim.scene.targets import target_surfaces
 
     cam = scene.camera
-    right, up, fwd = camera_frame(cam)
+    right, up, fwd = cam.frame()
     pupil = np.asarray(cam.position_m, float)
     parts: list[Part] = []
     dist = max((t.distance_m for t in scene.targets if t.kind != "bottom"), default=1.5)
