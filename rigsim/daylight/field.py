@@ -147,10 +147,32 @@ class AngularField:
         ip = np.minimum((ph / np.pi * nph).astype(int), nph - 1)
         return it, ip
 
-    def radiance(self, view_dirs) -> np.ndarray:
-        """Diffuse radiance seen looking along ``view_dirs`` (…, 3): (…, n_wl)."""
-        it, ip = self.view_bins(view_dirs)
-        return np.moveaxis(self.diffuse[:, it, ip], 0, -1)
+    def radiance(self, view_dirs, *, interpolate: bool = True) -> np.ndarray:
+        """Diffuse radiance seen looking along ``view_dirs`` (…, 3): (…, n_wl).
+
+        ``interpolate``: bilinear between bin centres in (θ, φ), ends clamped — what the
+        renderer looks up; otherwise the value of the bin.
+        """
+        if not interpolate:
+            it, ip = self.view_bins(view_dirs)
+            return np.moveaxis(self.diffuse[:, it, ip], 0, -1)
+        v = np.asarray(view_dirs, float)
+        v = v / np.linalg.norm(v, axis=-1, keepdims=True)
+        th = np.arccos(np.clip(v[..., 1], -1.0, 1.0))
+        ps = np.radians(self.sun_azimuth_deg)
+        cos_p = (v[..., 0] * np.sin(ps) + v[..., 2] * np.cos(ps)) / np.maximum(np.hypot(v[..., 0], v[..., 2]), 1e-12)
+        ph = np.arccos(np.clip(cos_p, -1.0, 1.0))
+        nt, nph = self.diffuse.shape[1:]
+        tt = np.clip(th * nt / np.pi - 0.5, 0.0, nt - 1.0)
+        tp = np.clip(ph * nph / np.pi - 0.5, 0.0, nph - 1.0)
+        i0 = np.minimum(np.floor(tt).astype(int), max(nt - 2, 0))
+        j0 = np.minimum(np.floor(tp).astype(int), max(nph - 2, 0))
+        i1, j1 = np.minimum(i0 + 1, nt - 1), np.minimum(j0 + 1, nph - 1)
+        ft, fp = (tt - i0)[..., None], (tp - j0)[..., None]
+        D = np.moveaxis(self.diffuse, 0, -1)
+        top = D[i0, j0] * (1 - fp) + D[i0, j1] * fp
+        bot = D[i1, j0] * (1 - fp) + D[i1, j1] * fp
+        return top * (1 - ft) + bot * ft
 
     # -- integrals -----------------------------------------------------------------------
     def irradiance(self, normal, *, beam: bool = True, diffuse: bool = True, sub: int = 4) -> np.ndarray:

@@ -279,10 +279,12 @@ def ambient_tables(scene: Scene, band_lo_nm: float, band_hi_nm: float, *, seed: 
     if waves is not None:
         from rigsim.daylight.waves import caustic_pattern
 
+        from rigsim.render.camera import camera_frame
+
+        fwd = camera_frame(scene.camera)[0]
         levels = {round(y0, 3)}
-        for t in scene.targets:
-            if t.kind == "bottom":
-                levels.add(round(y0 - t.distance_m, 3))
+        for t in scene.targets:  # one pattern at each target's centre height (focus changes with depth)
+            levels.add(round(y0 - t.distance_m if t.kind == "bottom" else y0 + t.distance_m * float(fwd[1]), 3))
         for y_lev in sorted(levels):
             depth = y_surf - y_lev
             if depth <= 0:
