@@ -36,6 +36,11 @@ def render_cmd(
     wavelengths: str = typer.Option("400:700:10", "--wavelengths", help="Band centres START:STOP:STEP, nm."),
     split: bool = typer.Option(False, "--split", help="Also render the direct-only and backscatter-only layers."),
     engine: str = typer.Option("mitsuba", "--engine", help="mitsuba (Monte Carlo) or preview (semi-analytic)."),
+    depth: float = typer.Option(None, "--depth", help="Camera depth below the surface, m (adds daylight)."),
+    sun_zenith: float = typer.Option(30.0, "--sun-zenith", help="Sun zenith angle above the surface, deg."),
+    daylight_model: str = typer.Option("kd", "--daylight-model",
+                                       help="Daylight field at depth: kd (fast) or monte-carlo (the meter's)."),
+    waves: str = typer.Option("flat", "--waves", help="Sea surface for caustics: flat | sines | pierson-moskowitz."),
     integrator: str = typer.Option("rigsim", "--integrator",
                                    help="rigsim (equiangular light sampling, default) or volpath (Mitsuba's)."),
     out: Path = typer.Option(..., "--out", help="Output folder."),
@@ -59,7 +64,15 @@ def render_cmd(
         raise ConfigError(f"unknown engine {engine!r}", field="--engine", allowed="mitsuba, preview")
     if integrator not in ("rigsim", "volpath"):
         raise ConfigError(f"unknown integrator {integrator!r}", field="--integrator", allowed="rigsim, volpath")
-    scene = build_scene(load_rig(rig), load_water(water), target, distance, size_m=target_size)
+    daylight = None
+    if depth is not None:
+        if engine == "preview":
+            raise ConfigError("daylight is rendered by the mitsuba engine only", field="--depth",
+                              allowed="--engine mitsuba with --depth")
+        from rigsim.render.daylight import daylight_from_options
+
+        daylight = daylight_from_options(depth, sun_zenith_deg=sun_zenith, model=daylight_model, waves=waves)
+    scene = build_scene(load_rig(rig), load_water(water), target, distance, size_m=target_size, daylight=daylight)
     layers = ("range_m", "clear", "object_id")
     if engine == "preview":
         from rigsim.preview import render_preview
@@ -101,7 +114,9 @@ def render_cmd(
     meta = dict(si.meta)
     meta["inputs"] = {"rig": str(rig), "water": water, "distance_m": distance, "target": target,
                       "target_size_m": scene.targets[0].size_m, "width": width, "height": height, "spp": spp,
-                      "seed": seed, "engine": engine, "integrator": integrator, "split": split, "wavelengths_nm": wl.tolist()}
+                      "seed": seed, "engine": engine, "integrator": integrator, "split": split,
+                      "depth_m": depth, "sun_zenith_deg": sun_zenith if depth is not None else None,
+                      "daylight_model": daylight_model if depth is not None else None, "wavelengths_nm": wl.tolist()}
     meta["preview_png"] = expo
     meta["files"] = {"spectral.exr": "radiance bands, W/(m2 sr nm) (continuous light) and flash bands, "
                                      "J/(m2 sr nm) per flash",

@@ -47,7 +47,12 @@ def compute_case(spec: StudySpec, case: Case) -> dict:
         from rigsim.render.camera import fov_water_deg
 
         size_m = case.target_fill * 2 * case.distance_m * np.tan(np.radians(fov_water_deg(rig.camera)) / 2)
-    scene = build_scene(rig, water, case.target, case.distance_m, size_m=size_m)
+    daylight = None
+    if case.depth_m is not None:  # ambient daylight at depth: sun at 30°, Kd field (rigsim.render.daylight)
+        from rigsim.render.daylight import daylight_from_options
+
+        daylight = daylight_from_options(case.depth_m, sun_zenith_deg=30.0, model="kd")
+    scene = build_scene(rig, water, case.target, case.distance_m, size_m=size_m, daylight=daylight)
     seed = spec.case_seed(case)
     rs = spec.render
     if rs.engine == "preview":

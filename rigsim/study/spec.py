@@ -15,7 +15,7 @@
     targets = ["colorchecker", "black-disk"]
     target_fill = 0.35      # optional: targets span this fraction of the image width at every
                             # distance (a larger chart farther out); default: their real size
-    depth_m = 10            # optional: camera depth for daylight
+    depth_m = 10            # optional: camera depth for ambient daylight (sun at 30°, Kd field)
 
     [render]
     width = 128
