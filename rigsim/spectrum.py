@@ -100,3 +100,33 @@ def extend_to_range(wavelength_nm: np.ndarray, values: np.ndarray,
         wl = np.concatenate([wl, [hi_nm]])
         v = np.concatenate([v, [v[-1]]])
     return wl, v
+
+
+def band_edges(wavelength_nm, bandwidth_nm=None) -> tuple[np.ndarray, np.ndarray]:
+    """Band centres and widths (nm) of a spectral image, checked.
+
+    Default widths: the grid spacing (the smaller neighbour distance), 10 nm for a
+    single band; bands may not overlap and must lie inside Mitsuba's 360–830 nm
+    (the renderer and the preview use the same bands).
+    """
+    wl = np.atleast_1d(as_wavelengths(wavelength_nm)).astype(float)
+    if wl.size > 1 and np.any(np.diff(wl) <= 0):
+        raise ConfigError("wavelengths must increase strictly", field="wavelengths_nm")
+    if bandwidth_nm is None:
+        if wl.size == 1:
+            bw = np.array([10.0])
+        else:
+            d = np.diff(wl)
+            bw = np.minimum(np.concatenate([[d[0]], d]), np.concatenate([d, [d[-1]]]))
+    else:
+        bw = np.broadcast_to(np.asarray(bandwidth_nm, float), wl.shape).copy()
+        if np.any(~np.isfinite(bw)) or np.any(bw <= 0):
+            raise ConfigError("band widths must be > 0 nm", field="bandwidth_nm", allowed="> 0")
+        if wl.size > 1 and np.any(wl[1:] - bw[1:] / 2 < wl[:-1] + bw[:-1] / 2 - 1e-9):
+            raise ConfigError("bands overlap", field="bandwidth_nm",
+                              allowed="widths no larger than the band spacing")
+    lo, hi = MITSUBA_WAVELENGTH_RANGE_NM
+    if wl[0] - bw[0] / 2 < lo - 1e-9 or wl[-1] + bw[-1] / 2 > hi + 1e-9:
+        raise ConfigError(f"bands {wl[0] - bw[0] / 2:g}–{wl[-1] + bw[-1] / 2:g} nm leave the supported range",
+                          field="wavelengths_nm", allowed=f"{lo:g}–{hi:g} nm")
+    return wl, bw
