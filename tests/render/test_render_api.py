@@ -154,7 +154,7 @@ def test_progress_callback_reaches_one():
     (dict(width=0), "width"),
     (dict(spp=1.5), "spp"),
     (dict(layers=("depth",)), "unknown layer"),
-    (dict(wavelengths_nm=[300.0]), "Mitsuba"),
+    (dict(wavelengths_nm=[300.0]), "leave the supported range"),
     (dict(wavelengths_nm=[550.0, 500.0]), "increase"),
     (dict(wavelengths_nm=[500.0, 510.0], bandwidth_nm=30.0), "overlap"),
 ])
