@@ -420,7 +420,7 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
         "water": scene.water.describe() if has_water else None,
         "camera": dataclasses.asdict(cam),
         "fov_water_x_deg": _fov_water_deg(cam),
-        "lights": [_light_meta(l) for l in scene.lights],
+        "lights": [l.describe() for l in scene.lights],
         "targets": [dataclasses.asdict(t) for t in scene.targets],
         "object_ids": {str(i + 1): lab for i, lab in enumerate(surf.labels)},
         "world_radius_m": world_r,
@@ -475,17 +475,6 @@ def _fov_water_deg(camera) -> float:
     if camera.port.kind == "flat":
         return float(np.degrees(2 * np.arcsin(np.sin(half_air) / WATER_INDEX)))
     return float(np.degrees(2 * half_air))
-
-
-def _light_meta(light) -> dict:
-    d = dataclasses.asdict(light)
-    d.pop("wavelength_nm", None)
-    d.pop("axial_intensity", None)
-    wl = np.asarray(light.wavelength_nm, float)
-    a = np.asarray(light.axial_intensity, float)
-    d["axial_intensity_range"] = [float(a.min()), float(a.max())] if a.size else []
-    d["wavelength_range_nm"] = [float(wl.min()), float(wl.max())] if wl.size else []
-    return d
 
 
 def _backscatter(scene, surf, tables, water, forward, cam, width, height, t_c, cols, rows, world_r,

@@ -226,17 +226,6 @@ def _geometry_layers(ms: MitsubaScene, scene: Scene, width: int, height: int) ->
             np.asarray(oid, np.int32).reshape(height, width))
 
 
-def _light_meta(light) -> dict:
-    d = dataclasses.asdict(light)
-    d.pop("wavelength_nm", None)
-    d.pop("axial_intensity", None)
-    wl = np.asarray(light.wavelength_nm, float)
-    a = np.asarray(light.axial_intensity, float)
-    d["axial_intensity_range"] = [float(a.min()), float(a.max())] if a.size else []
-    d["wavelength_range_nm"] = [float(wl.min()), float(wl.max())] if wl.size else []
-    return d
-
-
 def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, seed: int = 0,
            wavelengths_nm: Sequence[float] = DEFAULT_WAVELENGTHS_NM, bandwidth_nm=None,
            layers: Sequence[str] = ("range_m", "clear", "object_id"), split: bool = False,
@@ -388,7 +377,7 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
         "water": scene.water.describe() if water else None,
         "camera": dataclasses.asdict(scene.camera),
         "fov_water_x_deg": fov_water_deg(scene.camera),
-        "lights": [_light_meta(l) for l in scene.lights],
+        "lights": [l.describe() for l in scene.lights],
         "targets": [dataclasses.asdict(t) for t in scene.targets],
         "object_ids": legend,
         "world_radius_m": world_radius(scene),

@@ -184,6 +184,19 @@ class Light:
     axial_intensity: tuple[float, ...]
     spectrum_name: str = ""
 
+    def describe(self) -> dict:
+        """JSON-serialisable summary for metadata (the spectral table reduced to its ranges)."""
+        from dataclasses import asdict
+
+        d = asdict(self)
+        d.pop("wavelength_nm", None)
+        d.pop("axial_intensity", None)
+        wl = np.asarray(self.wavelength_nm, float)
+        a = np.asarray(self.axial_intensity, float)
+        d["axial_intensity_range"] = [float(a.min()), float(a.max())] if a.size else []
+        d["wavelength_range_nm"] = [float(wl.min()), float(wl.max())] if wl.size else []
+        return d
+
 
 @dataclass(frozen=True)
 class Rig:

@@ -7,24 +7,6 @@ import json
 import numpy as np
 import pytest
 
-import rigsim.cli as cli
-
-
-@pytest.fixture()
-def run(monkeypatch, capsys):
-    if "rigsim.cli.ambient" not in cli.COMMAND_MODULES:
-        monkeypatch.setattr(cli, "COMMAND_MODULES", [*cli.COMMAND_MODULES, "rigsim.cli.ambient"])
-
-    def _run(*argv):
-        try:
-            cli.main(list(map(str, argv)))
-            code = 0
-        except SystemExit as e:
-            code = e.code or 0
-        out = capsys.readouterr()
-        return code, out.out, out.err
-
-    return _run
 
 
 def test_json_layout_and_textbook_single_wavelength(tmp_path, run):

@@ -7,26 +7,8 @@ import json
 import numpy as np
 import pytest
 
-import rigsim.cli as cli
 
 from .conftest import PATCH, chart_image
-
-
-@pytest.fixture()
-def run(monkeypatch, capsys):
-    if "rigsim.cli.sensor" not in cli.COMMAND_MODULES:
-        monkeypatch.setattr(cli, "COMMAND_MODULES", [*cli.COMMAND_MODULES, "rigsim.cli.sensor"])
-
-    def _run(*argv):
-        try:
-            cli.main(list(map(str, argv)))
-            code = 0
-        except SystemExit as e:
-            code = e.code or 0
-        out = capsys.readouterr()
-        return code, out.out, out.err
-
-    return _run
 
 
 def test_capture_then_develop(tmp_path, run):
