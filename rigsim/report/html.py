@@ -14,7 +14,7 @@ import numpy as np
 
 from rigsim.fileio import atomic_write_text
 
-__all__ = ["write_report", "summary_sentences"]
+__all__ = ["write_report", "summary_sentences", "sensor_sentences"]
 
 
 def _read_csv(path: Path) -> list[dict]:
@@ -67,6 +67,23 @@ def summary_sentences(vis: list[dict], *, sensor: str | None = None, target: str
     return out
 
 
+def sensor_sentences(rows: list[dict], sensors: list[str]) -> list[str]:
+    """Plain-language comparison of the sensors: median SNR and ΔE over all cases of each."""
+    out = []
+    parts = []
+    for s in sensors:
+        snr = [r["snr_white"] for r in rows if r.get("sensor") == s and r.get("snr_white")]
+        de = [r["delta_e_mean"] for r in rows if r.get("sensor") == s and r.get("delta_e_mean") is not None]
+        if snr:
+            txt = f"{s} SNR {np.median(snr):.0f} ({20 * np.log10(np.median(snr)):.0f} dB)"
+            if de:
+                txt += f", chart ΔE2000 {np.median(de):.1f}"
+            parts.append(txt)
+    if parts:
+        out.append("Sensors (medians over all waters, rigs and distances): " + "; ".join(parts) + ".")
+    return out
+
+
 def write_report(study_dir: str | Path) -> Path:
     """Write ``report.html`` into a study folder from its tables and images."""
     import matplotlib
@@ -92,6 +109,7 @@ def write_report(study_dir: str | Path) -> Path:
     items = []
     for t in targets:
         items += summary_sentences(vis, sensor=sensors[0] if sensors else None, target=t)
+    items += sensor_sentences(rows, sensors)
     sec.append("<h2>Summary</h2><ul>" + "".join(f"<li>{html.escape(s)}</li>" for s in items) + "</ul>"
                + f"<p>Visibility range: the distance at which the target's apparent contrast (luminance, "
                  f"noise-free scene radiance) falls below {thr * 100:g} %, interpolated in log-contrast over "
