@@ -134,14 +134,19 @@ class AngularField:
         dirs = np.stack([st * np.sin(a), MU, st * np.cos(a)], axis=-1).reshape(mu.shape[0], ph.shape[0], -1, 3)
         return dirs, self.solid_angle_sr / dirs.shape[2]
 
-    def view_bins(self, view_dirs) -> tuple[np.ndarray, np.ndarray]:
-        """(θ bin, φ bin) of viewing directions (scene frame)."""
+    def view_angles(self, view_dirs) -> tuple[np.ndarray, np.ndarray]:
+        """(zenith θ, azimuth φ from the sun, 0…π) of viewing directions (scene frame), rad."""
         v = np.asarray(view_dirs, float)
         v = v / np.linalg.norm(v, axis=-1, keepdims=True)
         th = np.arccos(np.clip(v[..., 1], -1.0, 1.0))
         ps = np.radians(self.sun_azimuth_deg)
         cos_p = (v[..., 0] * np.sin(ps) + v[..., 2] * np.cos(ps)) / np.maximum(np.hypot(v[..., 0], v[..., 2]), 1e-12)
         ph = np.arccos(np.clip(cos_p, -1.0, 1.0))
+        return th, ph
+
+    def view_bins(self, view_dirs) -> tuple[np.ndarray, np.ndarray]:
+        """(θ bin, φ bin) of viewing directions (scene frame)."""
+        th, ph = self.view_angles(view_dirs)
         nt, nph = self.diffuse.shape[1:]
         it = np.minimum((th / np.pi * nt).astype(int), nt - 1)
         ip = np.minimum((ph / np.pi * nph).astype(int), nph - 1)
@@ -156,12 +161,7 @@ class AngularField:
         if not interpolate:
             it, ip = self.view_bins(view_dirs)
             return np.moveaxis(self.diffuse[:, it, ip], 0, -1)
-        v = np.asarray(view_dirs, float)
-        v = v / np.linalg.norm(v, axis=-1, keepdims=True)
-        th = np.arccos(np.clip(v[..., 1], -1.0, 1.0))
-        ps = np.radians(self.sun_azimuth_deg)
-        cos_p = (v[..., 0] * np.sin(ps) + v[..., 2] * np.cos(ps)) / np.maximum(np.hypot(v[..., 0], v[..., 2]), 1e-12)
-        ph = np.arccos(np.clip(cos_p, -1.0, 1.0))
+        th, ph = self.view_angles(view_dirs)
         nt, nph = self.diffuse.shape[1:]
         tt = np.clip(th * nt / np.pi - 0.5, 0.0, nt - 1.0)
         tp = np.clip(ph * nph / np.pi - 0.5, 0.0, nph - 1.0)
