@@ -127,6 +127,19 @@ T_CAP_OPTICAL_DEPTH = 30.0
 DEFAULT_PHASE_WEIGHTED = 0.5
 #: Share of scattered directions drawn around the lights (density ∝ 1/angle), the rest from the phase function.
 DEFAULT_LIGHT_DIRECTED = 0.4
+#: Russian roulette lifts the throughput of surviving paths to at most this (instead of 1):
+#: a path whose weight fell to 1e-4 (a direction drawn toward a light, where the phase
+#: function is small) is not boosted to a full-weight path that may then see the light.
+DEFAULT_RR_THRESHOLD = 0.05
+#: Share of the light-directed directions drawn from the light's aureole (:class:`AureoleTable`);
+#: the rest with density ∝ 1/angle.
+DEFAULT_AUREOLE = 0.75
+#: Share of scattering vertices (after the first bounce) that continue the path from an
+#: equiangular sample instead of the distance sample (one-sample MIS mixture).
+DEFAULT_EQUIANGULAR_VERTEX = 0.5
+#: The same share on camera rays (they seldom pass close to a light; the distance technique
+#: alone keeps every camera sample that reaches a target).
+DEFAULT_EQUIANGULAR_VERTEX_CAMERA = 0.0
 #: Smallest distance of a light from a ray line used by equiangular sampling (m).
 _D_MIN = 1e-6
 
@@ -301,6 +314,68 @@ def _cone_pdf(axis, w):
     return dr.select(sa > 0, 1.0 / (2.0 * dr.pi * dr.pi * sa), 0.0)
 
 
+class AureoleTable:
+    """Directions around a light with the shape of its aureole in forward-scattering water.
+
+    A ray that leaves ``x`` at angle α from the direction to a point light at distance
+    ``r`` collects, by single scattering along it, ``≈ I σ_s/(r sin α) ∫_α^π p(ψ) dψ``
+    (the equiangular integral: ``ψ`` runs from α at ``x`` to π far beyond the light).
+    For a phase function with a forward peak steeper than ``1/ψ`` that falls off faster
+    than the ``1/α`` of :func:`_cone_sample` — the infinite-variance tail of double
+    scattering near a strobe.  This table samples α with density per radian
+    ``G(α)/N``, ``G(α) = ∫_α^π p̄(ψ) dψ``, ``N = ∫_0^π G dα = ∫_0^π ψ p̄(ψ) dψ``
+    (``p̄``: the water's phase function averaged over its tabulated wavelengths), which
+    makes that light constant per sample up to transmittance and the beam pattern.
+
+    ``G`` is piecewise linear on the phase function's ψ cells; the table uses its cell
+    averages (piecewise-constant density in α, uniform inside a cell), and the
+    solid-angle density is ``g(α) / (2π sin α)``.
+    """
+
+    def __init__(self, phase):
+        import numpy as np
+
+        t = phase.tables
+        edges = np.asarray(t.grid.psi_edges, np.float64).copy()
+        edges[0], edges[-1] = 0.0, np.pi
+        v = 2.0 * np.sin(edges / 2.0) ** 2
+        v[0], v[-1] = 0.0, 2.0
+        omega = 2.0 * np.pi * np.diff(v)
+        K = phase.K
+        wbar = np.asarray(t.weights, np.float64).mean(axis=0)[:K]
+        dens = (wbar[:, None] * np.asarray(phase.realised_masses, np.float64)[:K]).sum(0) / omega  # 1/sr
+        dpsi = np.diff(edges)
+        G = np.concatenate([np.cumsum((dens * dpsi)[::-1])[::-1], [0.0]])  # G at the cell edges
+        mass = 0.5 * (G[:-1] + G[1:]) * dpsi
+        mass = np.maximum(mass, 1e-12 * mass.sum())
+        cdf = np.concatenate([[0.0], np.cumsum(mass)])
+        cdf /= cdf[-1]
+        self.phase = phase
+        self.n = len(dpsi)
+        self.edges = mi.Float(edges.astype(np.float32))
+        self.cdf = mi.Float(cdf.astype(np.float32))
+        self.g = mi.Float((np.diff(cdf) / dpsi).astype(np.float32))  # density per radian
+
+    def sample(self, axis, u1, u2):
+        j = dr.binary_search(0, self.n, lambda i: dr.gather(mi.Float, self.cdf, i) <= u1)
+        j = mi.UInt32(dr.clip(mi.Int32(j) - 1, 0, self.n - 1))
+        c0 = dr.gather(mi.Float, self.cdf, j)
+        c1 = dr.gather(mi.Float, self.cdf, j + 1)
+        a0 = dr.gather(mi.Float, self.edges, j)
+        a1 = dr.gather(mi.Float, self.edges, j + 1)
+        f = dr.select(c1 > c0, (u1 - c0) / (c1 - c0), 0.5)
+        a = dr.clip(dr.fma(dr.clip(f, 0.0, 1.0), a1 - a0, a0), 0.0, dr.pi)
+        sa, ca = dr.sincos(a)
+        sp, cp = dr.sincos(2.0 * dr.pi * u2)
+        return mi.Frame3f(axis).to_world(mi.Vector3f(sa * cp, sa * sp, ca))
+
+    def pdf(self, axis, w):
+        sa = dr.norm(dr.cross(axis, w))
+        a = dr.atan2(sa, dr.dot(axis, w))
+        g = dr.gather(mi.Float, self.g, self.phase._cell_of(a))
+        return dr.select(sa > 0, g / (2.0 * dr.pi * sa), 0.0)
+
+
 class _Segment:
     """Equiangular geometry of one ray segment and one light, with the θ density
 
@@ -353,6 +428,10 @@ def _mean4(s):
     return (s[0] + s[1] + s[2] + s[3]) * 0.25
 
 
+def _dot4(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
+
+
 def _channel(s, j):
     return dr.select(j == 0, s[0], dr.select(j == 1, s[1], dr.select(j == 2, s[2], s[3])))
 
@@ -376,6 +455,10 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
         self.rr_depth = int(props.get("rr_depth", 5))
         if self.rr_depth < 1:
             raise ConfigError(f"rr_depth must be >= 1, got {self.rr_depth}", field="integrator.rr_depth")
+        self.rr_threshold = float(props.get("rr_threshold", DEFAULT_RR_THRESHOLD))
+        if not 0.0 < self.rr_threshold <= 1.0:
+            raise ConfigError(f"rr_threshold must be in (0, 1], got {self.rr_threshold}",
+                              field="integrator.rr_threshold")
         self.mis = str(props.get("mis", "power"))
         if self.mis not in ("power", "balance"):
             raise ConfigError(f"mis must be power or balance, got {self.mis!r}", field="integrator.mis")
@@ -388,8 +471,17 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
         if not 0.0 <= self.cone < 1.0:
             raise ConfigError(f"light_directed must be in [0, 1), got {self.cone}",
                               field="integrator.light_directed")
+        self.aureole = float(props.get("aureole", DEFAULT_AUREOLE))
+        if not 0.0 <= self.aureole <= 1.0:
+            raise ConfigError(f"aureole must be in [0, 1], got {self.aureole}", field="integrator.aureole")
+        self.cont_eq = float(props.get("equiangular_vertex", DEFAULT_EQUIANGULAR_VERTEX))
+        self.cont_eq0 = float(props.get("equiangular_vertex_camera", DEFAULT_EQUIANGULAR_VERTEX_CAMERA))
+        for name, v in (("equiangular_vertex", self.cont_eq), ("equiangular_vertex_camera", self.cont_eq0)):
+            if not 0.0 <= v < 1.0:
+                raise ConfigError(f"{name} must be in [0, 1), got {v}", field=f"integrator.{name}")
         self._checked: dict[int, tuple] = {}
         self._tables: dict[int, tuple] = {}
+        self._aureoles: dict[int, tuple] = {}
         self.ambient = None
 
     def set_ambient(self, tables, world_radius_m: float = 1000.0) -> "RigsimVolIntegrator":
@@ -408,6 +500,18 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                 self._tables.clear()
             hit = (phase, PhaseAngleTable(phase))
             self._tables[id(phase)] = hit
+        return hit[1]
+
+    def _aureole_table(self, phase):
+        """The :class:`AureoleTable` of a rigsim water phase function (None for other phase functions)."""
+        if not all(hasattr(phase, a) for a in ("realised_masses", "tables", "_cell_of")):
+            return None
+        hit = self._aureoles.get(id(phase))
+        if hit is None or hit[0] is not phase:
+            if len(self._aureoles) > 16:
+                self._aureoles.clear()
+            hit = (phase, AureoleTable(phase))
+            self._aureoles[id(phase)] = hit
         return hit[1]
 
     # -- scene checks -----------------------------------------------------------------
@@ -479,6 +583,40 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
         occluded = scene.ray_test(it.spawn_ray_to(ds.p), active)
         return dr.select(active & ~occluded, val, 0.0), ds
 
+    def _directed(self, x, wo, pdf_of, light_pos, aureole, sampler, active):
+        """Mix a default direction with directions drawn around the lights.
+
+        With probability ``1 − c`` (``c = light_directed``) the default direction ``wo`` is
+        kept (phase or BSDF sampling, density ``pdf_of(w)``); otherwise a light ``k`` is
+        chosen uniformly and the direction is drawn around the axis from ``x`` to it: with
+        probability ``h`` (``aureole``) from the light's aureole (:class:`AureoleTable`),
+        otherwise at angle α with density ∝ 1/α (:func:`_cone_sample`, which cancels the
+        ``1/D`` a ray passing at distance D collects in any water).
+
+        Returns ``(direction, mixture density)``.
+        """
+        K = len(light_pos)
+        c, h = self.cone, (self.aureole if aureole is not None else 0.0)
+        u_c = sampler.next_1d(active)
+        u_a = sampler.next_2d(active)
+        use_light = u_c < c
+        v = u_c / c * K  # ∈ [0, K) on the light branch: light ⌊v⌋, sub-branch from the fraction
+        kc = mi.UInt32(dr.minimum(v, K - 1))
+        use_au = (v - mi.Float(kc)) < h
+        axes = [dr.normalize(light_pos[k] - x) for k in range(K)]
+        for k in range(K):
+            pick = use_light & (kc == k)
+            wo = dr.select(pick & ~use_au, _cone_sample(axes[k], u_a), wo)
+            if h > 0:
+                wo = dr.select(pick & use_au, aureole.sample(axes[k], u_a.x, u_a.y), wo)
+        pdf = (1.0 - c) * pdf_of(wo)
+        for k in range(K):
+            pk = (1.0 - h) * _cone_pdf(axes[k], wo)
+            if h > 0:
+                pk += h * aureole.pdf(axes[k], wo)
+            pdf += (c / K) * pk
+        return wo, pdf
+
     # -- Mitsuba interface ----------------------------------------------------------------
     def sample(self, scene, sampler, ray, medium=None, active=True):
         (emitters,) = self._scene_info(scene, medium)
@@ -501,6 +639,7 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
             phase = medium.phase_function()
             scatters = dr.any(sigma_s > 0.0)
             table = self._phase_table(phase) if (eq and self.alpha > 0) else None
+            aureole = self._aureole_table(phase) if self.aureole > 0 else None
             cone = self.cone > 0 and len(emitters) > 0
             wbar = table.weights(wavelengths) if table is not None else None
         else:
@@ -508,13 +647,13 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
         light_pos = [e.sample_position(time, mi.Point2f(0.5), active)[0].p for e in emitters]
         bsdf_ctx = mi.BSDFContext()
 
-        def cond(sampler, active, depth, o, d, beta, L):
+        def cond(sampler, active, depth, o, d, beta, L, hero, pw):
             return active
 
-        def body(sampler, active, depth, o, d, beta, L):
+        def body(sampler, active, depth, o, d, beta, L, hero, pw):
             # ---- termination: depth limit, zero throughput, Russian roulette
             active &= (depth + 1 < max_depth) & dr.any(beta != 0.0)
-            q = dr.minimum(dr.max(beta), 0.95)
+            q = dr.minimum(dr.max(beta) * (1.0 / self.rr_threshold), 0.95)
             rr = depth > self.rr_depth
             active &= (sampler.next_1d(active) < q) | ~rr
             beta = dr.select(rr & active, beta / q, beta)
@@ -523,36 +662,35 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
             si = scene.ray_intersect(r, active)
             t_s = dr.select(si.is_valid(), si.t, dr.inf)
             surf = active & si.is_valid()
+            hit = mi.Bool(surf)  # the segment ends on a surface (reached or not by this path)
+            beta_hit = mi.Spectrum(beta)  # weight of the surface's direct light: β · T(t_s)
             o_next, d_next = mi.Point3f(o), mi.Vector3f(d)
             cont = mi.Bool(False)
 
             if has_medium:
                 # ---- distance sampling, spectral MIS over the path's wavelengths
-                u_ch = sampler.next_1d(active)
                 u_t = sampler.next_1d(active)
-                j = mi.UInt32(dr.minimum(u_ch * 4.0, 3.0))
-                t_d = -dr.log(1.0 - u_t) / _channel(sigma_t, j)
+                t_d = -dr.log(1.0 - u_t) / _channel(sigma_t, hero)
                 med = active & (t_d < t_s) & scatters
                 T_d = dr.exp(-sigma_t * t_d)
-                pdf_d = _mean4(sigma_t * T_d)
+                pdf_d = _dot4(pw, sigma_t * T_d)
                 T_s = dr.exp(-sigma_t * t_s)
-                P_s = _mean4(T_s)
-                # albedo 0 (the ``direct`` pass): every path goes on to the surface, weight T
-                surf &= (t_d >= t_s) | ~scatters
-                beta_surf = dr.select(scatters, dr.select(P_s > 0, T_s / P_s, 0.0), T_s)
-                w_med = dr.select(pdf_d > 0, T_d * sigma_s / pdf_d, 0.0)
+                P_s = _dot4(pw, T_s)
+                beta_hit = beta * T_s
+                w_d = dr.select(pdf_d > 0, T_d * sigma_s / pdf_d, 0.0)
                 x_d = o + d * t_d
                 mei_d = self._medium_interaction(x_d, d, t_d, wavelengths, time, medium_ptr)
                 ctx = mi.PhaseFunctionContext(sampler)
                 t_e_max = dr.minimum(t_s, t_cap)
 
+                segs, t_es, ok_es = [], [], []
                 for k, em in enumerate(emitters):
                     seg = _Segment(o, d, light_pos[k], t_e_max, table, wbar, self.alpha) if eq else None
                     # (1) the distance sample connected to light k
                     val, ds = self._light(scene, mei_d, em, sigma_t, med)
                     ph_val, _ = phase.eval_pdf(ctx, mei_d, ds.d, med)
                     w = self.mis_weight(pdf_d, seg.pdf(t_d)) if eq else 1.0
-                    L += dr.select(med, beta * w_med * ph_val * val * w, 0.0)
+                    L += dr.select(med, beta * w_d * ph_val * val * w, 0.0)
                     if eq:
                         # (2) an equiangular sample toward light k
                         t_e, pdf_e = seg.sample(sampler.next_1d(active), sampler.next_1d(active),
@@ -563,57 +701,90 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                         val_e, ds_e = self._light(scene, mei_e, em, sigma_t, ok)
                         ph_e, _ = phase.eval_pdf(ctx, mei_e, ds_e.d, ok)
                         T_e = dr.exp(-sigma_t * t_e)
-                        pdf_d_e = _mean4(sigma_t * T_e)
+                        pdf_d_e = _dot4(pw, sigma_t * T_e)
                         w_e = self.mis_weight(pdf_e, pdf_d_e)
                         L += dr.select(ok, beta * (T_e * sigma_s / pdf_e) * ph_e * val_e * w_e, 0.0)
+                        segs.append(seg)
+                        t_es.append(t_e)
+                        ok_es.append(ok)
 
-                # ---- continue from the distance sample: phase sampling
-                wo, ph_w, ph_pdf = phase.sample(ctx, mei_d, sampler.next_1d(med), sampler.next_2d(med), med)
+                # ---- the vertex the path continues from: a one-sample mixture of the distance
+                # sample (share 1 − ε) and the equiangular samples (ε, split evenly over the lights).
+                # Its density near a light ∝ 1/r², so the in-scattered light of the next segment
+                # (∝ 1/r) stays bounded.  Only the distance technique reaches the surface.
+                n_l = len(segs)
+                if n_l and (self.cont_eq > 0 or self.cont_eq0 > 0):
+                    eps = dr.select(scatters, dr.select(depth == 0, self.cont_eq0, self.cont_eq), 0.0)
+                    u_v = sampler.next_1d(active)
+                    use_e = u_v < eps
+                    kv = mi.UInt32(dr.minimum(u_v / dr.maximum(eps, 1e-12) * n_l, n_l - 1))
+                    t_c = mi.Float(t_d)
+                    ok_c = mi.Bool(med)
+                    for k in range(n_l):
+                        pick = use_e & (kv == k)
+                        t_c = dr.select(pick, t_es[k], t_c)
+                        ok_c = dr.select(pick, ok_es[k], ok_c)
+                    T_c = dr.exp(-sigma_t * t_c)
+                    p_eq = mi.Float(0.0)
+                    for k in range(n_l):
+                        p_eq += (eps / n_l) * segs[k].pdf(t_c)
+                    pj_c = (1.0 - eps) * sigma_t * T_c + p_eq  # density of t_c for each hero channel j
+                    pdf_c = _dot4(pw, pj_c)
+                    med_c = ok_c
+                    surf &= ~use_e & ((t_d >= t_s) | ~scatters)
+                    p_surf = (1.0 - eps) * P_s
+                    w_med = dr.select(pdf_c > 0, T_c * sigma_s / pdf_c, 0.0)
+                    x_c = o + d * t_c
+                    mei_c = self._medium_interaction(x_c, d, t_c, wavelengths, time, medium_ptr)
+                else:
+                    med_c, x_c, mei_c, p_surf = med, x_d, mei_d, P_s
+                    # albedo 0 (the ``direct`` pass): every path goes on to the surface, weight T
+                    surf &= (t_d >= t_s) | ~scatters
+                    w_med = w_d
+                    pj_c, pdf_c = sigma_t * T_d, pdf_d
+                beta_surf = dr.select(scatters, dr.select(p_surf > 0, T_s / p_surf, 0.0), T_s)
+                med = med_c
+                # posterior of the hero channel given the path so far (spectral MIS over whole paths)
+                pw_next = dr.select(med, dr.select(pdf_c > 0, pw * pj_c / pdf_c, pw), pw)
+                pw_next = dr.select(surf & scatters, dr.select(P_s > 0, pw * T_s / P_s, pw), pw_next)
+
+                # ---- continue from the chosen vertex: phase sampling
+                wo, ph_w, ph_pdf = phase.sample(ctx, mei_c, sampler.next_1d(med), sampler.next_2d(med), med)
                 if cone:
-                    # defensive mixture with directions drawn around each light (density ∝ 1/angle)
-                    u_c = sampler.next_1d(med)
-                    u_a = sampler.next_2d(med)
-                    use_cone = u_c < self.cone
-                    kc = mi.UInt32(dr.minimum(u_c * (len(emitters) / self.cone), len(emitters) - 1))
-                    for k in range(len(emitters)):
-                        w_cone = _cone_sample(dr.normalize(light_pos[k] - x_d), u_a)
-                        wo = dr.select(use_cone & (kc == k), w_cone, wo)
-                    ph_val, ph_pdf = phase.eval_pdf(ctx, mei_d, wo, med)
-                    pdf_mix = (1.0 - self.cone) * ph_pdf
-                    for k in range(len(emitters)):
-                        pdf_mix += (self.cone / len(emitters)) * _cone_pdf(dr.normalize(light_pos[k] - x_d), wo)
+                    # defensive mixture with directions drawn around each light
+                    wo, pdf_mix = self._directed(x_c, wo, lambda w: phase.eval_pdf(ctx, mei_c, w, med)[1],
+                                                 light_pos, aureole, sampler, med)
+                    ph_val, _ = phase.eval_pdf(ctx, mei_c, wo, med)
                     ph_w = dr.select(pdf_mix > 0, ph_val / pdf_mix, 0.0)
                     ph_pdf = pdf_mix
                 med &= ph_pdf > 0
                 beta = dr.select(med, beta * w_med * ph_w, beta)
-                o_next = dr.select(med, x_d, o_next)
+                o_next = dr.select(med, x_c, o_next)
                 d_next = dr.select(med, wo, d_next)
                 cont |= med
                 beta = dr.select(surf, beta * beta_surf, beta)
 
             # ---- surfaces: the water boundary ends the path; opaque surfaces: NEE + BSDF sampling
             bsdf = si.bsdf(r)
-            surf &= ~mi.has_flag(bsdf.flags(), mi.BSDFFlags.Null)
+            opaque = ~mi.has_flag(bsdf.flags(), mi.BSDFFlags.Null)
+            surf &= opaque
+            hit &= opaque
+            # direct light on the surface at the end of the segment, for every path (weight β T(t_s):
+            # its expected value over whether the distance sample reaches the surface), so that a
+            # target seen through turbid water gets it from every camera sample
             for em in emitters:
-                val, ds = self._light(scene, si, em, sigma_t, surf)
-                f = bsdf.eval(bsdf_ctx, si, si.to_local(ds.d), surf)
-                L += dr.select(surf, beta * f * val, 0.0)
+                val, ds = self._light(scene, si, em, sigma_t, hit)
+                f = bsdf.eval(bsdf_ctx, si, si.to_local(ds.d), hit)
+                L += dr.select(hit, beta_hit * f * val, 0.0)
             bs, bw = bsdf.sample(bsdf_ctx, si, sampler.next_1d(surf), sampler.next_2d(surf), surf)
             wo_s = si.to_world(bs.wo)
             pdf_s = bs.pdf
             if has_medium and self.cone > 0 and len(emitters) > 0:
                 # the same defensive mixture as in the medium (rays from a surface passing a light)
-                u_c = sampler.next_1d(surf)
-                u_a = sampler.next_2d(surf)
-                use_cone = u_c < self.cone
-                kc = mi.UInt32(dr.minimum(u_c * (len(emitters) / self.cone), len(emitters) - 1))
-                for k in range(len(emitters)):
-                    w_cone = _cone_sample(dr.normalize(light_pos[k] - si.p), u_a)
-                    wo_s = dr.select(use_cone & (kc == k), w_cone, wo_s)
-                f_s, pdf_b = bsdf.eval_pdf(bsdf_ctx, si, si.to_local(wo_s), surf)
-                pdf_s = (1.0 - self.cone) * pdf_b
-                for k in range(len(emitters)):
-                    pdf_s += (self.cone / len(emitters)) * _cone_pdf(dr.normalize(light_pos[k] - si.p), wo_s)
+                wo_s, pdf_s = self._directed(si.p, wo_s,
+                                             lambda w: bsdf.eval_pdf(bsdf_ctx, si, si.to_local(w), surf)[1],
+                                             light_pos, aureole, sampler, surf)
+                f_s, _ = bsdf.eval_pdf(bsdf_ctx, si, si.to_local(wo_s), surf)
                 bw = dr.select(pdf_s > 0, f_s / pdf_s, 0.0)
             surf &= pdf_s > 0
             beta = dr.select(surf, beta * bw, beta)
@@ -622,16 +793,21 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
             d_next = dr.select(surf, r_s.d, d_next)
             cont |= surf
 
+            if has_medium:
+                pw = pw_next
             depth = dr.select(cont, depth + 1, depth)
             active &= cont
-            return sampler, active, depth, o_next, d_next, beta, L
+            return sampler, active, depth, o_next, d_next, beta, L, hero, pw
 
         if emitters or self.ambient is None:
+            # the hero wavelength that drives distance sampling is drawn once per path
+            hero = mi.UInt32(dr.minimum(sampler.next_1d(active) * 4.0, 3.0))
             state = (sampler, active, mi.UInt32(0), mi.Point3f(ray.o), mi.Vector3f(ray.d),
-                     mi.Spectrum(1.0), mi.Spectrum(0.0))
-            state = dr.while_loop(state, cond, body, labels=("sampler", "active", "depth", "o", "d", "beta", "L"),
+                     mi.Spectrum(1.0), mi.Spectrum(0.0), hero, mi.Spectrum(0.25))
+            state = dr.while_loop(state, cond, body,
+                                  labels=("sampler", "active", "depth", "o", "d", "beta", "L", "hero", "pw"),
                                   label="rigsim_vol")
-            L = state[-1]
+            L = state[6]
         else:
             L = mi.Spectrum(0.0)
         if self.ambient is not None:

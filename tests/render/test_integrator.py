@@ -22,6 +22,7 @@ from rigsim.render.integrator import (
     PLUGIN_NAME,
     RigsimVolIntegrator,
     _Segment,
+    AureoleTable,
     PhaseAngleTable,
     integrator_dict,
     with_integrator,
@@ -174,6 +175,30 @@ def test_equiangular_sampler_realises_its_density(alpha):
         assert abs(est - (b - a)) < 4 * se + 1e-3 * (b - a), (a, b, est, se)
 
 
+def test_aureole_sampler_realises_its_density():
+    """E[1{α ∈ bin}/pdf(ω)] = solid angle of the bin, for directions drawn around an axis."""
+    n = 1 << 18
+    ph = build_mitsuba_scene(_scene("coastal-regions"), lights=[]).medium.phase_function()
+    table = AureoleTable(ph)
+    axis = dr.normalize(mi.Vector3f(0.3, -0.2, 0.9))
+    sampler = mi.load_dict({"type": "independent"})
+    sampler.seed(6, n)
+    w = table.sample(axis, sampler.next_1d(), sampler.next_1d())
+    pdf = np.array(table.pdf(axis, w), float)
+    wn = np.array(w, float).T
+    ax = np.array(axis, float).ravel()
+    a = np.arctan2(np.linalg.norm(np.cross(ax, wn), axis=1), wn @ ax)  # exact at tiny angles (arccos is not)
+    assert np.all(pdf > 0)
+    # the sampler concentrates on small angles (the aureole): most samples within 10°
+    assert np.mean(a < np.radians(10)) > 0.5
+    edges = np.radians([0.0, 0.05, 0.5, 2.0, 10.0, 30.0, 90.0, 150.0, 180.0])
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        x = np.where((a >= lo) & (a < hi), 1.0 / pdf, 0.0)
+        est, se = x.mean(), x.std() / np.sqrt(n)
+        omega = 2 * np.pi * (np.cos(lo) - np.cos(hi))
+        assert abs(est - omega) < 4 * se + 2e-3 * omega, (np.degrees([lo, hi]), est, omega, se)
+
+
 def _pair(max_depth, *, n, spp, integrator=None):
     scene = _scene()
     ms = build_mitsuba_scene(scene, lights=scene.lights, max_depth=max_depth)
@@ -183,6 +208,15 @@ def _pair(max_depth, *, n, spp, integrator=None):
 
 def test_single_scattering_image_matches_volpath_ztest():
     a, b = _pair(2, n=8, spp=256)
+    z, z_mean = _ztest(a, b)
+    _assert_consistent(z, z_mean, 8)
+
+
+def test_double_scattering_image_matches_volpath_ztest():
+    """Two scattering events (or one and a surface): the hero-wavelength MIS over whole paths,
+    the equiangular continuation vertex, the aureole directions, the surface's direct light
+    on every path and the Russian-roulette threshold all take part."""
+    a, b = _pair(3, n=8, spp=512)
     z, z_mean = _ztest(a, b)
     _assert_consistent(z, z_mean, 8)
 
