@@ -110,6 +110,9 @@ export PATH="$venv/bin:$PATH"
 case "$job" in
   install) say "done. Activate with: source .venv/bin/activate" ;;
   test)
+    # a real camera raw photo for the development tests, from a PyPI package archive (cached)
+    "$venv/bin/python" -m rigsim.cli sample-raw >/dev/null 2>&1 \
+      || say "could not download the sample raw file from files.pythonhosted.org (tests that need it will say why)"
     say "running the test suite"
     set +e
     "$venv/bin/python" -m pytest -m "not slow" -q "${@:2}"

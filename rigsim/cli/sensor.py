@@ -127,3 +127,18 @@ def develop_cmd(
     out = out or Path(f"{photo.stem}_developed")
     paths = save_capture(cap, out, dng=False)
     typer.echo(f"{cap.camera}: wrote {', '.join(p.name for p in paths.values())} to {out}")
+
+
+@app.command("sample-raw")
+def sample_raw_cmd(
+    name: str = typer.Argument("sony-ilce-7rm3", help="Which sample (see rigsim.sensor.samples)."),
+):
+    """Download (once) a real camera raw photo from a package registry and print its path.
+
+    ``rigsim develop "$(rigsim sample-raw)"`` develops it with rigsim's pipeline.
+    """
+    from rigsim.sensor.samples import SAMPLE_RAWS, fetch_sample_raw
+
+    path = fetch_sample_raw(name)
+    typer.echo(str(path))
+    typer.echo(f"{SAMPLE_RAWS[name].camera}; {SAMPLE_RAWS[name].licence}", err=True)

@@ -55,6 +55,42 @@ def save_dng(cap: Capture, path: str | Path) -> Path:
                      unique_camera_model=f"rigsim {cap.camera}")
 
 
+def _ratio(v) -> float:
+    if isinstance(v, tuple) and len(v) == 2:
+        return float(v[0]) / float(v[1]) if v[1] else float("nan")
+    if isinstance(v, tuple):
+        v = v[0]
+    return float(v)
+
+
+def read_exif(path: str | Path) -> dict:
+    """Make, model and exposure of a TIFF-based raw file (ARW, NEF, CR2, DNG, PEF …); {} otherwise.
+
+    Keys (when present): ``make``, ``model``, ``exposure_time_s``, ``f_number``, ``iso``.
+    """
+    import tifffile
+
+    out: dict = {}
+    try:
+        with tifffile.TiffFile(str(path)) as tf:
+            tags = tf.pages[0].tags
+            for code, key in ((271, "make"), (272, "model")):
+                t = tags.get(code)
+                if t is not None and isinstance(t.value, str) and t.value.strip():
+                    out[key] = t.value.strip()
+            exif = tags.get(34665)
+            ex = exif.value if exif is not None and isinstance(exif.value, dict) else {}
+            for name, key in (("ExposureTime", "exposure_time_s"), ("FNumber", "f_number"),
+                              ("ISOSpeedRatings", "iso"), ("PhotographicSensitivity", "iso")):
+                if name in ex and key not in out:
+                    v = _ratio(ex[name])
+                    if np.isfinite(v) and v > 0:
+                        out[key] = v
+    except Exception:  # noqa: BLE001 - not a TIFF container (CR3, RAF …): no tags
+        return {}
+    return out
+
+
 def read_raw(path: str | Path) -> Capture:
     """Read a real (or rigsim) raw file into a :class:`Capture`.
 
@@ -103,16 +139,17 @@ def read_raw(path: str | Path) -> Capture:
         raise ConfigError(f"cannot read as a raw file: {why} ({type(exc).__name__})", file=path,
                           allowed=_RAW_ALLOWED) from None
     exposure = None
-    tags = {}
+    tags = read_exif(path)
     if path.suffix.lower() == ".dng":
         try:
-            tags = read_dng_tags(path)
+            tags.update(read_dng_tags(path))
         except Exception:  # noqa: BLE001 - tags are optional extras
-            tags = {}
-        if "exposure_time_s" in tags and "iso" in tags:
-            exposure = Exposure(float(tags["exposure_time_s"]), float(tags["iso"]),
-                                Lens(f_number=float(tags.get("f_number", 4.0))))
-    camera = tags.get("unique_camera_model") or (str(model) if model else path.stem)
+            pass
+    if "exposure_time_s" in tags and "iso" in tags:
+        exposure = Exposure(float(tags["exposure_time_s"]), float(tags["iso"]),
+                            Lens(f_number=float(tags.get("f_number", 4.0))))
+    make_model = " ".join(tags[k] for k in ("make", "model") if k in tags)
+    camera = tags.get("unique_camera_model") or make_model or (str(model) if model else path.stem)
     return Capture(raw=raw, cfa_pattern=pattern, black_level=black, white_level=white,
                    exposure=exposure, camera=str(camera), as_shot_neutral=neutral, ccm=ccm,
                    meta={"source_file": str(path), "ccm_source": "file colour matrix" if ccm is not None
