@@ -144,11 +144,22 @@ DEFAULT_EQUIANGULAR_VERTEX_CAMERA = 0.0
 _D_MIN = 1e-6
 
 
-def integrator_dict(name: str = "rigsim", *, max_depth: int = -1, rr_depth: int = 5) -> dict:
-    """Mitsuba dict of integrator ``name`` (a key of :data:`INTEGRATORS`)."""
+def integrator_dict(name: str = "rigsim", *, max_depth: int = -1, rr_depth: int = 5,
+                    backscatter_aov: bool = False) -> dict:
+    """Mitsuba dict of integrator ``name`` (a key of :data:`INTEGRATORS`).
+
+    ``backscatter_aov`` (rigsim only): the integrator also returns the backscatter estimate
+    of each path as AOVs (see :meth:`RigsimVolIntegrator.aov_names`).
+    """
     if name not in INTEGRATORS:
         raise ConfigError(f"unknown integrator {name!r}", field="integrator", allowed=", ".join(INTEGRATORS))
-    return {"type": INTEGRATORS[name], "max_depth": int(max_depth), "rr_depth": int(rr_depth)}
+    d = {"type": INTEGRATORS[name], "max_depth": int(max_depth), "rr_depth": int(rr_depth)}
+    if backscatter_aov:
+        if name != "rigsim":
+            raise ConfigError("only the rigsim integrator returns backscatter AOVs", field="integrator",
+                              allowed="rigsim")
+        d["backscatter_aov"] = True
+    return d
 
 
 def with_integrator(ms, integrator):
@@ -474,6 +485,9 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
         self.aureole = float(props.get("aureole", DEFAULT_AUREOLE))
         if not 0.0 <= self.aureole <= 1.0:
             raise ConfigError(f"aureole must be in [0, 1], got {self.aureole}", field="integrator.aureole")
+        # also return, as AOVs, the light of each path before it first meets a surface: the
+        # ``backscatter`` pass (targets black) estimated from the same paths, no second render
+        self.backscatter_aov = bool(props.get("backscatter_aov", False))
         self.cont_eq = float(props.get("equiangular_vertex", DEFAULT_EQUIANGULAR_VERTEX))
         self.cont_eq0 = float(props.get("equiangular_vertex_camera", DEFAULT_EQUIANGULAR_VERTEX_CAMERA))
         for name, v in (("equiangular_vertex", self.cont_eq), ("equiangular_vertex_camera", self.cont_eq0)):
@@ -647,10 +661,10 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
         light_pos = [e.sample_position(time, mi.Point2f(0.5), active)[0].p for e in emitters]
         bsdf_ctx = mi.BSDFContext()
 
-        def cond(sampler, active, depth, o, d, beta, L, hero, pw):
+        def cond(sampler, active, depth, o, d, beta, L, hero, pw, Lb, clean):
             return active
 
-        def body(sampler, active, depth, o, d, beta, L, hero, pw):
+        def body(sampler, active, depth, o, d, beta, L, hero, pw, Lb, clean):
             # ---- termination: depth limit, zero throughput, Russian roulette
             active &= (depth + 1 < max_depth) & dr.any(beta != 0.0)
             q = dr.minimum(dr.max(beta) * (1.0 / self.rr_threshold), 0.95)
@@ -690,7 +704,9 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                     val, ds = self._light(scene, mei_d, em, sigma_t, med)
                     ph_val, _ = phase.eval_pdf(ctx, mei_d, ds.d, med)
                     w = self.mis_weight(pdf_d, seg.pdf(t_d)) if eq else 1.0
-                    L += dr.select(med, beta * w_d * ph_val * val * w, 0.0)
+                    c_d = dr.select(med, beta * w_d * ph_val * val * w, 0.0)
+                    L += c_d
+                    Lb += dr.select(clean, c_d, 0.0)
                     if eq:
                         # (2) an equiangular sample toward light k
                         t_e, pdf_e = seg.sample(sampler.next_1d(active), sampler.next_1d(active),
@@ -703,7 +719,9 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                         T_e = dr.exp(-sigma_t * t_e)
                         pdf_d_e = _dot4(pw, sigma_t * T_e)
                         w_e = self.mis_weight(pdf_e, pdf_d_e)
-                        L += dr.select(ok, beta * (T_e * sigma_s / pdf_e) * ph_e * val_e * w_e, 0.0)
+                        c_e = dr.select(ok, beta * (T_e * sigma_s / pdf_e) * ph_e * val_e * w_e, 0.0)
+                        L += c_e
+                        Lb += dr.select(clean, c_e, 0.0)
                         segs.append(seg)
                         t_es.append(t_e)
                         ok_es.append(ok)
@@ -795,24 +813,29 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
 
             if has_medium:
                 pw = pw_next
+            clean &= ~surf  # the path has been reflected by a surface: no longer backscatter
             depth = dr.select(cont, depth + 1, depth)
             active &= cont
-            return sampler, active, depth, o_next, d_next, beta, L, hero, pw
+            return sampler, active, depth, o_next, d_next, beta, L, hero, pw, Lb, clean
 
         if emitters or self.ambient is None:
             # the hero wavelength that drives distance sampling is drawn once per path
             hero = mi.UInt32(dr.minimum(sampler.next_1d(active) * 4.0, 3.0))
             state = (sampler, active, mi.UInt32(0), mi.Point3f(ray.o), mi.Vector3f(ray.d),
-                     mi.Spectrum(1.0), mi.Spectrum(0.0), hero, mi.Spectrum(0.25))
+                     mi.Spectrum(1.0), mi.Spectrum(0.0), hero, mi.Spectrum(0.25), mi.Spectrum(0.0),
+                     mi.Bool(True))
             state = dr.while_loop(state, cond, body,
-                                  labels=("sampler", "active", "depth", "o", "d", "beta", "L", "hero", "pw"),
+                                  labels=("sampler", "active", "depth", "o", "d", "beta", "L", "hero", "pw",
+                                          "Lb", "clean"),
                                   label="rigsim_vol")
-            L = state[6]
+            L, Lb = state[6], state[9]
         else:
-            L = mi.Spectrum(0.0)
+            L, Lb = mi.Spectrum(0.0), mi.Spectrum(0.0)
         if self.ambient is not None:
-            L = L + self._ambient_sample(scene, sampler, ray, medium, active)
-        return L, mi.Bool(True), []
+            La, Lab = self._ambient_sample(scene, sampler, ray, medium, active)
+            L, Lb = L + La, Lb + Lab
+        aovs = [Lb[0], Lb[1], Lb[2], Lb[3]] if self.backscatter_aov else []
+        return L, mi.Bool(True), aovs
 
     # -- daylight ---------------------------------------------------------------------------
     def _ambient_sample(self, scene, sampler, ray, medium, active):
@@ -848,10 +871,10 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
         r_max = 0.5 * getattr(self, "_world_radius", 1000.0)
         bsdf_ctx = mi.BSDFContext()
 
-        def cond(sampler, active, depth, o, d, beta, L):
+        def cond(sampler, active, depth, o, d, beta, L, Lb):
             return active
 
-        def body(sampler, active, depth, o, d, beta, L):
+        def body(sampler, active, depth, o, d, beta, L, Lb):
             first = depth == 0
             rr = depth > 2
             q = dr.minimum(dr.max(beta), 0.95)
@@ -871,6 +894,7 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
             else:
                 emit = active & ~first
             L += dr.select(emit, beta * l_look * frac, 0.0)
+            Lb += dr.select(emit & first, beta * l_look * frac, 0.0)  # the camera segment: backscatter
             # surfaces: attenuation to the surface, sun beam by next-event estimation
             water_seg = mi.Bool(True) if has_medium else ~first
             beta = dr.select(water_seg, beta * dr.exp(-c * dr.select(hit, t_s, 0.0)), beta)
@@ -891,16 +915,17 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
             d = dr.select(cont, r_s.d, d)
             depth = dr.select(cont, depth + 1, depth)
             active = cont & dr.any(beta != 0.0)
-            return sampler, active, depth, o, d, beta, L
+            return sampler, active, depth, o, d, beta, L, Lb
 
         state = (sampler, mi.Bool(active), mi.UInt32(0), mi.Point3f(ray.o), mi.Vector3f(ray.d),
-                 mi.Spectrum(1.0), mi.Spectrum(0.0))
-        state = dr.while_loop(state, cond, body, labels=("sampler", "active", "depth", "o", "d", "beta", "L"),
+                 mi.Spectrum(1.0), mi.Spectrum(0.0), mi.Spectrum(0.0))
+        state = dr.while_loop(state, cond, body, labels=("sampler", "active", "depth", "o", "d", "beta", "L", "Lb"),
                               label="rigsim_vol_daylight")
-        return state[-1]
+        return state[-2], state[-1]
 
     def aov_names(self):
-        return []
+        """``backscatter.0..3`` (the path's four wavelengths) when ``backscatter_aov`` is on."""
+        return [f"backscatter.{j}" for j in range(4)] if self.backscatter_aov else []
 
     def to_string(self):
         return (f"RigsimVolIntegrator[max_depth={self.max_depth}, rr_depth={self.rr_depth}, mis={self.mis}, "

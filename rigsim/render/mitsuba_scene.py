@@ -99,7 +99,7 @@ def water_medium_dict(water, *, albedo_zero: bool = False, phase=None) -> dict:
 
 def build_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: int = -1,
                         rr_depth: int = 5, phase=None, integrator: str = "rigsim",
-                        ambient=None) -> MitsubaScene:
+                        ambient=None, backscatter_aov: bool = False) -> MitsubaScene:
     """Load the Mitsuba scene of one render pass.
 
     Parameters
@@ -119,6 +119,9 @@ def build_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: 
     integrator
         ``"rigsim"`` (equiangular sampling toward the lights, :mod:`rigsim.render.integrator`)
         or ``"volpath"`` (Mitsuba's stock volumetric path tracer).
+    backscatter_aov
+        The rigsim integrator also returns each path's backscatter (its light before it first
+        meets a surface) as AOVs: the ``backscatter`` pass from the same paths.
     ambient
         Daylight field tables (:func:`rigsim.render.daylight.ambient_tables`) lighting this
         pass as well (rigsim integrator only), or None.
@@ -129,7 +132,8 @@ def build_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: 
     surfaces = mitsuba_surfaces(scene.camera, scene.targets)
     from rigsim.render.integrator import integrator_dict  # registers the rigsim_vol plugin
 
-    d: dict = {"type": "scene", "integrator": integrator_dict(integrator, max_depth=max_depth, rr_depth=rr_depth)}
+    d: dict = {"type": "scene", "integrator": integrator_dict(integrator, max_depth=max_depth, rr_depth=rr_depth,
+                                                               backscatter_aov=backscatter_aov)}
     has_water = scene.water is not None and mode != "clear"
     if has_water:
         d[MEDIUM_KEY] = water_medium_dict(scene.water, albedo_zero=(mode == "direct"), phase=phase)

@@ -99,7 +99,8 @@ def _chunk_seed(seed: int, pass_index: int, chunk: int) -> int:
 
 def render_pass(ms: MitsubaScene, camera, *, width: int, height: int, spp: int, seed: int,
                 band_lo: np.ndarray, band_w: np.ndarray, pass_index: int = 0,
-                tick: Callable[[], None] | None = None) -> tuple[np.ndarray, int]:
+                tick: Callable[[], None] | None = None,
+                aov_out: dict | None = None) -> tuple[np.ndarray, int]:
     """Band-averaged radiance (height, width, bands) of one loaded Mitsuba scene.
 
     Parameters
@@ -110,6 +111,9 @@ def render_pass(ms: MitsubaScene, camera, *, width: int, height: int, spp: int, 
         The :class:`~rigsim.scene.types.Camera` whose rays are traced.
     band_lo, band_w
         Lower band edges and widths (nm).
+    aov_out
+        If given and the integrator returns the four ``backscatter.j`` AOVs, their band-averaged
+        image is stored in ``aov_out["backscatter"]`` (same layout as the image).
 
     Returns
     -------
@@ -119,6 +123,7 @@ def render_pass(ms: MitsubaScene, camera, *, width: int, height: int, spp: int, 
     B = len(band_lo)
     n_pix = width * height
     acc = np.zeros(n_pix * B, np.float64)
+    acc_b = None
     integrator = ms.scene.integrator()
     lo_arr = mi.Float(band_lo.astype(np.float32))
     w_arr = mi.Float(band_w.astype(np.float32))
@@ -164,9 +169,10 @@ def render_pass(ms: MitsubaScene, camera, *, width: int, height: int, spp: int, 
             lams.append(lam)
             bands.append(b)
         ray.wavelengths = mi.Spectrum(*lams)
-        L, _, _ = integrator.sample(ms.scene, sampler, ray, ms.medium, mi.Bool(True))
+        L, _, aovs = integrator.sample(ms.scene, sampler, ray, ms.medium, mi.Bool(True))
+        want_b = aov_out is not None and len(aovs) == 4
         bands_arr = mi.Vector4u(*bands) if hasattr(mi, "Vector4u") else bands
-        dr.eval(L, bands_arr)
+        dr.eval(L, bands_arr, *(aovs if want_b else ()))
         Ln = np.asarray(L, np.float64).reshape(4, n)
         Bn = np.stack([np.asarray(b, np.int64) for b in bands])
         bad = ~np.isfinite(Ln)
@@ -174,14 +180,24 @@ def render_pass(ms: MitsubaScene, camera, *, width: int, height: int, spp: int, 
             dropped += int(bad.sum())
             Ln[bad] = 0.0
         pix_g = np.arange(n, dtype=np.int64) // sc + row0 * width
-        acc += np.bincount((pix_g[None, :] * B + Bn).ravel(), weights=Ln.ravel(), minlength=n_pix * B)
+        bins = (pix_g[None, :] * B + Bn).ravel()
+        acc += np.bincount(bins, weights=Ln.ravel(), minlength=n_pix * B)
+        if want_b:
+            Lb = np.stack([np.asarray(a, np.float64) for a in aovs])
+            Lb[bad | ~np.isfinite(Lb)] = 0.0  # a dropped path is dropped from both
+            if acc_b is None:
+                acc_b = np.zeros(n_pix * B, np.float64)
+            acc_b += np.bincount(bins, weights=Lb.ravel(), minlength=n_pix * B)
         if tick is not None:
             tick()
     if fixed_counts:
         edges = (np.arange(B + 1) * (4 * spp) + (B - 1)) // B
-        img = acc.reshape(height, width, B) / np.diff(edges)
+        scale = 1.0 / np.diff(edges)
     else:
-        img = acc.reshape(height, width, B) * (B / (4.0 * spp))
+        scale = B / (4.0 * spp)
+    img = acc.reshape(height, width, B) * scale
+    if acc_b is not None:
+        aov_out["backscatter"] = acc_b.reshape(height, width, B) * scale
     return img, dropped
 
 
@@ -309,6 +325,11 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
         modes += [m for m in ("clear", "direct", "backscatter") if m in layers]
     # daylight is continuous light: it lights the continuous pass (never the flash pass)
     has = {"continuous": bool(groups["continuous"]) or ambient is not None, "strobe": bool(groups["strobe"])}
+    # the rigsim integrator estimates the backscatter layer from the full pass's own paths
+    # (their light before they first meet a surface): no separate pass with black targets
+    bs_from_full = integrator == "rigsim" and "backscatter" in modes
+    if bs_from_full:
+        modes.remove("backscatter")
     passes = [(g, m) for g in ("continuous", "strobe") if has[g] for m in modes]
     per_pass = _n_chunks(width, height, spp)
     total = max(1, len(passes) * per_pass)
@@ -325,13 +346,18 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
     dropped = 0
     geom_scene: MitsubaScene | None = None
     for pi, (g, m) in enumerate(passes):
+        with_bs = bs_from_full and m == "full"
         ms = build_mitsuba_scene(scene, lights=groups[g], mode=m, max_depth=max_depth, integrator=integrator,
-                                 ambient=ambient if g == "continuous" else None)
+                                 ambient=ambient if g == "continuous" else None, backscatter_aov=with_bs)
         if geom_scene is None:
             geom_scene = ms
+        aov: dict = {}
         img, nd = render_pass(ms, scene.camera, width=width, height=height, spp=spp, seed=seed, pass_index=pi,
-                               band_lo=lo_edges, band_w=bw, tick=tick(f"{g} {m}"))
+                               band_lo=lo_edges, band_w=bw, tick=tick(f"{g} {m}"),
+                               aov_out=aov if with_bs else None)
         results[(g, m)] = img.astype(np.float32)
+        if with_bs:
+            results[(g, "backscatter")] = aov["backscatter"].astype(np.float32)
         dropped += nd
     if dropped:
         warnings.warn(f"{dropped} non-finite path samples were dropped", RuntimeWarning, stacklevel=2)
@@ -374,6 +400,9 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
         "width": width, "height": height, "spp": spp, "seed": seed, "max_depth": max_depth,
         "layers": list(out_layers),
         "passes": [f"{g}:{m}" for g, m in passes],
+        "backscatter_estimate": ("the full pass's paths, their light before they first meet a surface"
+                                 if bs_from_full else ("a pass with black targets" if water and "backscatter"
+                                                       in layers else None)),
         "water": scene.water.describe() if water else None,
         "camera": dataclasses.asdict(scene.camera),
         "fov_water_x_deg": fov_water_deg(scene.camera),

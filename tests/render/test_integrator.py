@@ -254,3 +254,26 @@ def test_refuses_scenes_outside_its_class():
     ray = mi.RayDifferential3f(mi.Point3f(0, 0, -1), mi.Vector3f(0, 0, 1))
     with pytest.raises(ConfigError, match="point lights"):
         scene.integrator().sample(scene, sampler, ray, None, mi.Bool(True))
+
+
+def test_backscatter_aov_matches_a_pass_with_black_targets():
+    """The backscatter layer estimated from the full pass's paths (their light before the first
+    surface) agrees with the separate pass in which the targets are black (per-pixel Z-test)."""
+    scene = _scene()
+    wl, bw = band_edges(WL, BW)
+    full = build_mitsuba_scene(scene, lights=scene.lights, backscatter_aov=True)
+    black = build_mitsuba_scene(scene, lights=scene.lights, mode="backscatter")
+    a, b, f = [], [], []
+    for i in range(8):
+        aov: dict = {}
+        img, _ = render_pass(full, scene.camera, width=W, height=H, spp=256, seed=300 + i, band_lo=wl - bw / 2,
+                             band_w=bw, aov_out=aov)
+        a.append(aov["backscatter"])
+        f.append(img)
+        b.append(render_pass(black, scene.camera, width=W, height=H, spp=256, seed=700 + i, band_lo=wl - bw / 2,
+                             band_w=bw)[0])
+    a, b, f = np.stack(a), np.stack(b), np.stack(f)
+    z, z_mean = _ztest(a, b)
+    _assert_consistent(z, z_mean, 8)
+    # and it is not the full image: the white patch adds light where it is seen
+    assert f.mean() > 1.2 * a.mean()

@@ -146,7 +146,9 @@ def test_progress_callback_reaches_one():
     calls = []
     render(_scattering_scene(), width=6, height=4, spp=2, wavelengths_nm=[550.0], layers=("clear",), split=True,
            progress=lambda f, msg: calls.append((f, msg)))
-    assert calls and calls[-1][0] == pytest.approx(1.0) and len(calls) == 4
+    # passes: full (with the backscatter estimate from its paths), clear, direct
+    assert calls and calls[-1][0] == pytest.approx(1.0) and len(calls) == 3
+    assert [m for _, m in calls] == ["continuous full", "continuous clear", "continuous direct"]
 
 
 # --------------------------------------------------------------------------- errors
