@@ -11,6 +11,8 @@ import logging
 from collections.abc import Callable, Sequence
 from typing import Any
 
+from rigsim.errors import RigsimError
+
 log = logging.getLogger(__name__)
 
 __all__ = ["run_tasks"]
@@ -60,19 +62,37 @@ def run_tasks(items: Sequence[Any], compute: Callable[[Any], Any], store: Callab
     Returns
     -------
     The number of items computed in this call.
+
+    Raises
+    ------
+    TaskFailures
+        After every other item has been computed and stored, if some items raised: their
+        keys and errors (the stored results are kept; running again retries only those).
     """
     todo = [it for it in items if not is_done(it)]
     done0 = len(items) - len(todo)
     if done0:
         log.info("resuming: %d of %d %s already finished", done0, len(items), label)
     prog, task = _progress(label, len(items), done0, progress)
+    failures: list[tuple[str, BaseException]] = []
+
+    def finish(it, get_result):
+        try:
+            res = get_result()
+        except Exception as exc:  # noqa: BLE001 - one failed item must not lose the others
+            failures.append((key(it), exc))
+            log.error("%s %s failed: %s", label, key(it), exc)
+        else:
+            store(it, res)
+            if on_done:
+                on_done(it)
+        prog.advance(task)
+
     with prog:
         if serial or not todo:
             for it in todo:
-                store(it, compute(it))
-                prog.advance(task)
-                if on_done:
-                    on_done(it)
+                finish(it, lambda it=it: compute(it))
+            _raise_failures(failures, label, len(todo))
             return len(todo)
         from dask.distributed import Client, LocalCluster, as_completed
 
@@ -87,13 +107,26 @@ def run_tasks(items: Sequence[Any], compute: Callable[[Any], Any], store: Callab
         try:
             futures = {client.submit(compute, it, pure=False, key=f"{label}-{key(it)}"): it for it in todo}
             for fut in as_completed(futures):
-                it = futures[fut]
-                store(it, fut.result())
-                prog.advance(task)
-                if on_done:
-                    on_done(it)
+                finish(futures[fut], fut.result)
         finally:
             client.close()
             if cluster is not None:
                 cluster.close()
+    _raise_failures(failures, label, len(todo))
     return len(todo)
+
+
+class TaskFailures(RigsimError):
+    """Some items of :func:`run_tasks` raised; ``failures`` holds (key, exception) pairs."""
+
+    def __init__(self, message: str, failures: list[tuple[str, BaseException]]):
+        super().__init__(message)
+        self.failures = failures
+
+
+def _raise_failures(failures, label: str, n: int) -> None:
+    if not failures:
+        return
+    lines = "; ".join(f"{k}: {e}" for k, e in failures[:5]) + (" …" if len(failures) > 5 else "")
+    raise TaskFailures(f"{len(failures)} of {n} {label} items failed ({lines}); the others are stored, "
+                       "and running again retries only the failed ones", failures)

@@ -11,6 +11,7 @@ import logging
 
 import numpy as np
 
+from rigsim.errors import ConfigError
 from rigsim.study.spec import Case, StudySpec, sensor_key
 
 log = logging.getLogger(__name__)
@@ -89,11 +90,20 @@ def compute_case(spec: StudySpec, case: Case) -> dict:
         else:
             ex = Exposure(cs.shutter_s, cs.iso, lens)
         wb, wb_kw = cs.white_balance, {}
-        if wb == "auto":
+        auto = wb == "auto"
+        if auto:
             gray = next((k for k in masks if k.startswith("patch:neutral 5")), None)
             wb, wb_kw = ("chart", {"mask": masks[gray]}) if gray and masks[gray].sum() >= 4 else ("grayworld", {})
-        cap = capture(si, sensor, ex, seed=seed, develop=DevelopOptions(demosaic=cs.demosaic, white_balance=wb,
-                                                                       wb_kwargs=wb_kw))
+        try:
+            cap = capture(si, sensor, ex, seed=seed, develop=DevelopOptions(demosaic=cs.demosaic, white_balance=wb,
+                                                                           wb_kwargs=wb_kw))
+        except ConfigError:
+            if not (auto and wb == "chart"):
+                raise
+            # "auto": the neutral patch is clipped or lost in the water's light: gray world instead
+            wb, wb_kw = "grayworld", {}
+            cap = capture(si, sensor, ex, seed=seed, develop=DevelopOptions(demosaic=cs.demosaic, white_balance=wb,
+                                                                           wb_kwargs=wb_kw))
         row = dict(base)
         skey = sensor_key(sname)
         row.update({"sensor": skey, "iso": ex.iso, "exposure_time_s": ex.exposure_time_s,

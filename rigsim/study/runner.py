@@ -94,12 +94,14 @@ def run_study(spec: StudySpec, out: str | Path, *, scheduler: str | None = None,
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out / "study.json", json.dumps(spec.describe(), indent=1, default=str))
-    run_tasks([(spec, c) for c in spec.cases()], _run_one, lambda it, res: _store(out, spec, it[1], res),
-              is_done=lambda it: (_case_dir(out, spec, it[1]) / "result.json").is_file(),
-              key=lambda it: spec.case_id(it[1]), scheduler=scheduler, workers=workers, serial=serial,
-              progress=progress, label="study",
-              on_done=(lambda it: on_case_done(it[1])) if on_case_done else None)
-    assemble_tables(spec, out)
+    try:
+        run_tasks([(spec, c) for c in spec.cases()], _run_one, lambda it, res: _store(out, spec, it[1], res),
+                  is_done=lambda it: (_case_dir(out, spec, it[1]) / "result.json").is_file(),
+                  key=lambda it: spec.case_id(it[1]), scheduler=scheduler, workers=workers, serial=serial,
+                  progress=progress, label="study",
+                  on_done=(lambda it: on_case_done(it[1])) if on_case_done else None)
+    finally:
+        assemble_tables(spec, out)  # the finished cases' tables, also when some cases failed
     return out
 
 
