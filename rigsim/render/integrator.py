@@ -28,13 +28,21 @@ boundary) the radiance is
 (``Σ_k p(ψ_k) T(r_k) V_k I_k(ω)/r_k²``; delta lights, reachable only by next-event
 estimation), ``L_ind`` everything else.
 
-* **Distance sampling with spectral MIS** (one sample per segment): a wavelength
-  ``j`` of the path is picked uniformly and ``t ~ σ_t,j exp(−σ_t,j t)``; the density
-  actually used is the average over the path's wavelengths,
-  ``p_d(t) = ¼ Σ_i σ_t,i T_i(t)`` (probability ``P_s = ¼ Σ_i T_i(t_s)`` of reaching
-  the surface), so every wavelength's weight ``σ_s,i T_i / p_d ≤ 4 albedo_i`` stays
-  bounded (the "hero" single-wavelength pdf of ``volpath`` does not).  The sampled
-  vertex continues the path (phase-function sampling) and estimates ``L_ind``.
+* **Distance sampling with spectral MIS over whole paths** (one sample per segment):
+  a hero wavelength ``h`` of the path, drawn once, drives ``t ~ σ_t,h exp(−σ_t,h t)``;
+  the density used is the mixture over the four possible heroes weighted by their
+  posterior given the path so far, ``p_d(t) = Σ_j π_j σ_t,j T_j(t)`` with
+  ``π_j ∝ Π_{earlier segments} p_j`` (``P_s = Σ_j π_j T_j(t_s)`` to reach the surface).
+  The path's weight is then ``f_i / (¼ Σ_j Π p_j)``: bounded by 4 × albedo products
+  for every wavelength over the *whole* path (per-segment averaging bounds each
+  segment's factor by ``4 albedo`` but lets the product grow as ``4ⁿ``; volpath's
+  single-wavelength pdf bounds nothing).
+* **Continuation vertex** (``equiangular_vertex``, 0.5 after the first bounce, 0 on
+  camera rays): the vertex the path continues from is drawn from the one-sample
+  mixture of the distance sample and the equiangular samples, density
+  ``(1 − ε) p_d(t) + ε/K Σ_k p_e,k(t)``.  A scattered ray that passes close to a light
+  would otherwise put distance-sampled vertices next to it, whose own in-scattered
+  light is ``∝ 1/r``.
 * **Equiangular sampling** (Kulla & Fajardo 2012) toward *each* point light ``k`` on
   *every* segment (camera rays and scattered rays): with ``Δ = (p_k − o)·d`` and
   ``D`` the distance of the light from the ray line,
@@ -65,12 +73,26 @@ estimation), ``L_ind`` everything else.
   (``phase_weighted`` = 0.5) draw θ from the wavelength-averaged water phase function
   on ``[θ_a, θ_b]``, the rest uniformly (:class:`PhaseAngleTable`); the reported
   density is the mixture's.
+* **Aureole directions** (``aureole`` = 0.75 of the light-directed share): in
+  forward-scattering water a ray leaving ``x`` at angle α from a light collects
+  ``∝ G(α)/(r sin α)``, ``G(α) = ∫_α^π p̄ dψ`` — steeper than ``1/α`` wherever the phase
+  function's forward peak is; :class:`AureoleTable` samples α ∝ ``G`` (the rest of the
+  light-directed directions stay ∝ ``1/α``).
 * **Surfaces** (opaque BSDFs, here rigsim's two-sided diffuse targets): next-event
-  estimation to every light with the analytic transmittance, then the
-  BSDF/light-directed mixture (point lights are delta: no MIS with BSDF sampling
-  needed).
-* **Russian roulette** as ``volpath``: from ``rr_depth`` on, survive with
-  ``q = min(max_i β_i, 0.95)``.  ``max_depth`` counts vertices as ``volpath`` does
+  estimation to every light with the analytic transmittance, for *every* path whose
+  segment ends on the surface, weighted ``β T(t_s)`` (the expectation over whether the
+  distance sample reaches it: a target seen through turbid water gets its direct light
+  from every camera sample, not from the few that reach it); then, for the paths that
+  do reach it, the BSDF/light-directed mixture (point lights are delta: no MIS with BSDF
+  sampling needed).
+* **Russian roulette**: from ``rr_depth`` on, survive with
+  ``q = min(max_i β_i / rr_threshold, 0.95)`` (``rr_threshold`` = 0.05): a path whose
+  weight fell to 1e-4 (a direction drawn toward a light where the phase function is
+  small) is lifted to 0.05, not to a full-weight path that may then see a strobe.
+* **Backscatter from the same paths** (``backscatter_aov``): the light each path
+  gathers before it first meets a surface is the estimate of the pass with black
+  targets; it is returned as four AOVs, so the ``backscatter`` layer costs no second
+  render.  ``max_depth`` counts vertices as ``volpath`` does
   (1: nothing, since lights cannot be seen; 2: single scattering / direct light).
 
 Every light is connected at every vertex (no random light choice): rigsim passes
