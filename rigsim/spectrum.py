@@ -20,8 +20,17 @@ MITSUBA_WAVELENGTH_RANGE_NM = (360.0, 830.0)
 
 
 def as_wavelengths(wavelength_nm) -> np.ndarray:
-    """Return wavelengths (nm) as a float array, checking they are finite and positive."""
-    wl = np.asarray(wavelength_nm, dtype=float)
+    """Return wavelengths (nm) as a float array, checking they are finite and positive.
+
+    A string is read by :func:`parse_wavelength_range` (``"400:700:10"``, ``"450,550"``).
+    """
+    if isinstance(wavelength_nm, str):
+        return parse_wavelength_range(wavelength_nm)
+    try:
+        wl = np.asarray(wavelength_nm, dtype=float)
+    except (TypeError, ValueError):
+        raise ConfigError(f"cannot read wavelengths {wavelength_nm!r}", field="wavelength_nm",
+                          allowed="numbers in nm, or START:STOP:STEP") from None
     if not np.all(np.isfinite(wl)) or np.any(wl <= 0):
         raise ConfigError("wavelengths must be finite and > 0 nm", field="wavelength_nm")
     return wl

@@ -241,3 +241,14 @@ def test_emitter_light_tracing_and_pattern():
     ds, val = em.sample_direction(it, mi.Point2f(0.5, 0.5))
     assert np.allclose(np.array(val, float).ravel(), 2.0 * 0.5 / 4.0, rtol=1e-5)
     assert bool(np.array(ds.delta)[0]) and float(np.array(ds.dist)[0]) == pytest.approx(2.0, rel=1e-6)
+
+
+def test_wavelengths_as_a_range_string_or_bad_values():
+    from rigsim.spectrum import band_edges
+
+    wl, bw = band_edges("400:700:50", None)
+    assert wl.tolist() == [400.0, 450.0, 500.0, 550.0, 600.0, 650.0, 700.0] and np.allclose(bw, 50.0)
+    with pytest.raises(ConfigError, match="cannot read wavelengths"):
+        band_edges(["blue"], None)
+    with pytest.raises(ConfigError, match="cannot read wavelengths"):
+        band_edges("400-700", None)
