@@ -75,8 +75,11 @@ def run_case(water: str, rig_path: str, *, width: int, height: int, budget_s: fl
     rig = load_rig(ROOT / rig_path)
     scene = build_scene(rig, water, target, distance_m)
     strobes = [l for l in scene.lights if l.kind == "strobe"]
-    ms_v = build_mitsuba_scene(scene, lights=strobes, mode="full")
+    ms_v = build_mitsuba_scene(scene, lights=strobes, mode="full", integrator="volpath")
     ms_r = with_integrator(ms_v, "rigsim")
+    # the two must really differ (build_mitsuba_scene's default integrator is rigsim's own)
+    names = [type(m.scene.integrator()).__name__ for m in (ms_v, ms_r)]
+    assert names[0] != names[1] and "RigsimVol" in names[1], names
     wl, bw = band_edges(WAVELENGTHS)
     kw = dict(width=width, height=height, band_lo=wl - bw / 2, band_w=bw)
 
