@@ -89,6 +89,12 @@ estimation), ``L_ind`` everything else.
   ``q = min(max_i β_i / rr_threshold, 0.95)`` (``rr_threshold`` = 0.05): a path whose
   weight fell to 1e-4 (a direction drawn toward a light where the phase function is
   small) is lifted to 0.05, not to a full-weight path that may then see a strobe.
+* **Halo next-event estimation** (``halo_nee``, on): at every medium vertex, for each
+  light, a direction from the :class:`AureoleTable`, a traced segment along it, an
+  equiangular sample on it and a shadow ray estimate the light's halo (light scattered
+  once more near the strobe) directly, combined by the power heuristic with the
+  continuation path, whose next segment weighs that light by the complementary weight.
+  Without it the halo comes only from the share of continuations drawn toward a light.
 * **Backscatter from the same paths** (``backscatter_aov``): the light each path
   gathers before it first meets a surface is the estimate of the pass with black
   targets; it is returned as four AOVs, so the ``backscatter`` layer costs no second
@@ -504,6 +510,7 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
         if not 0.0 <= self.cone < 1.0:
             raise ConfigError(f"light_directed must be in [0, 1), got {self.cone}",
                               field="integrator.light_directed")
+        self.halo = bool(props.get("halo_nee", True))
         self.aureole = float(props.get("aureole", DEFAULT_AUREOLE))
         if not 0.0 <= self.aureole <= 1.0:
             raise ConfigError(f"aureole must be in [0, 1], got {self.aureole}", field="integrator.aureole")
@@ -645,13 +652,19 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
             wo = dr.select(pick & ~use_au, _cone_sample(axes[k], u_a), wo)
             if h > 0:
                 wo = dr.select(pick & use_au, aureole.sample(axes[k], u_a.x, u_a.y), wo)
+        return wo, self._directed_pdf(wo, pdf_of, axes, aureole)
+
+    def _directed_pdf(self, wo, pdf_of, axes, aureole):
+        """Density of :meth:`_directed` at ``wo`` (``axes``: unit directions to the lights)."""
+        K = len(axes)
+        c, h = self.cone, (self.aureole if aureole is not None else 0.0)
         pdf = (1.0 - c) * pdf_of(wo)
         for k in range(K):
             pk = (1.0 - h) * _cone_pdf(axes[k], wo)
             if h > 0:
                 pk += h * aureole.pdf(axes[k], wo)
             pdf += (c / K) * pk
-        return wo, pdf
+        return pdf
 
     # -- Mitsuba interface ----------------------------------------------------------------
     def sample(self, scene, sampler, ray, medium=None, active=True):
@@ -677,16 +690,17 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
             table = self._phase_table(phase) if (eq and self.alpha > 0) else None
             aureole = self._aureole_table(phase) if self.aureole > 0 else None
             cone = self.cone > 0 and len(emitters) > 0
+            halo = self.halo and aureole is not None and eq and cone
             wbar = table.weights(wavelengths) if table is not None else None
         else:
             sigma_t = None
         light_pos = [e.sample_position(time, mi.Point2f(0.5), active)[0].p for e in emitters]
         bsdf_ctx = mi.BSDFContext()
 
-        def cond(sampler, active, depth, o, d, beta, L, hero, pw, Lb, clean):
+        def cond(sampler, active, depth, o, d, beta, L, hero, pw, Lb, clean, hw):
             return active
 
-        def body(sampler, active, depth, o, d, beta, L, hero, pw, Lb, clean):
+        def body(sampler, active, depth, o, d, beta, L, hero, pw, Lb, clean, hw):
             # ---- termination: depth limit, zero throughput, Russian roulette
             active &= (depth + 1 < max_depth) & dr.any(beta != 0.0)
             q = dr.minimum(dr.max(beta) * (1.0 / self.rr_threshold), 0.95)
@@ -726,7 +740,7 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                     val, ds = self._light(scene, mei_d, em, sigma_t, med)
                     ph_val, _ = phase.eval_pdf(ctx, mei_d, ds.d, med)
                     w = self.mis_weight(pdf_d, seg.pdf(t_d)) if eq else 1.0
-                    c_d = dr.select(med, beta * w_d * ph_val * val * w, 0.0)
+                    c_d = dr.select(med, beta * w_d * ph_val * val * (w * hw[k]), 0.0)
                     L += c_d
                     Lb += dr.select(clean, c_d, 0.0)
                     if eq:
@@ -741,7 +755,7 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                         T_e = dr.exp(-sigma_t * t_e)
                         pdf_d_e = _dot4(pw, sigma_t * T_e)
                         w_e = self.mis_weight(pdf_e, pdf_d_e)
-                        c_e = dr.select(ok, beta * (T_e * sigma_s / pdf_e) * ph_e * val_e * w_e, 0.0)
+                        c_e = dr.select(ok, beta * (T_e * sigma_s / pdf_e) * ph_e * val_e * (w_e * hw[k]), 0.0)
                         L += c_e
                         Lb += dr.select(clean, c_e, 0.0)
                         segs.append(seg)
@@ -797,6 +811,38 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                     ph_val, _ = phase.eval_pdf(ctx, mei_c, wo, med)
                     ph_w = dr.select(pdf_mix > 0, ph_val / pdf_mix, 0.0)
                     ph_pdf = pdf_mix
+                hw_next = [mi.Float(1.0) for _ in emitters]
+                if halo:
+                    # ---- next-event estimation of each light's halo from this vertex: a direction
+                    # from the aureole table, an equiangular sample on it, a shadow ray; MIS (power)
+                    # with the continuation, whose next segment then weighs light k by hw_next[k]
+                    axes_c = [dr.normalize(light_pos[k] - x_c) for k in range(len(emitters))]
+                    pdf_of_c = (lambda w: phase.eval_pdf(ctx, mei_c, w, med)[1])
+                    deeper = med & (depth + 2 < max_depth)
+                    beta_c = beta * w_med
+                    for k, em in enumerate(emitters):
+                        pa_cont = aureole.pdf(axes_c[k], wo)
+                        hw_next[k] = dr.select(deeper, self.mis_weight(pdf_mix, pa_cont), 1.0)
+                        w_h = aureole.sample(axes_c[k], sampler.next_1d(deeper), sampler.next_1d(deeper))
+                        pa = aureole.pdf(axes_c[k], w_h)
+                        pm = self._directed_pdf(w_h, pdf_of_c, axes_c, aureole)
+                        ph1, _ = phase.eval_pdf(ctx, mei_c, w_h, deeper)
+                        r_h = mi.Ray3f(x_c, w_h, time, wavelengths)
+                        si_h = scene.ray_intersect(r_h, deeper)
+                        t_sh = dr.select(si_h.is_valid(), si_h.t, dr.inf)
+                        seg_h = _Segment(x_c, w_h, light_pos[k], dr.minimum(t_sh, t_cap), table, wbar, self.alpha)
+                        t_h, pdf_h = seg_h.sample(sampler.next_1d(deeper), sampler.next_1d(deeper),
+                                                  sampler.next_1d(deeper))
+                        ok_h = deeper & (pa > 0) & (pdf_h > 0) & (t_h < t_sh)
+                        x_h = x_c + w_h * t_h
+                        mei_h = self._medium_interaction(x_h, w_h, t_h, wavelengths, time, medium_ptr)
+                        val_h, ds_h = self._light(scene, mei_h, em, sigma_t, ok_h)
+                        ph2, _ = phase.eval_pdf(ctx, mei_h, ds_h.d, ok_h)
+                        T_h = dr.exp(-sigma_t * t_h)
+                        c_h = dr.select(ok_h, beta_c * (ph1 / pa) * self.mis_weight(pa, pm)
+                                        * (T_h * sigma_s / pdf_h) * ph2 * val_h, 0.0)
+                        L += c_h
+                        Lb += dr.select(clean, c_h, 0.0)
                 med &= ph_pdf > 0
                 beta = dr.select(med, beta * w_med * ph_w, beta)
                 o_next = dr.select(med, x_c, o_next)
@@ -836,19 +882,21 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
             if has_medium:
                 pw = pw_next
             clean &= ~surf  # the path has been reflected by a surface: no longer backscatter
+            if has_medium:
+                hw = [dr.select(med, hw_next[k], 1.0) for k in range(len(emitters))]
             depth = dr.select(cont, depth + 1, depth)
             active &= cont
-            return sampler, active, depth, o_next, d_next, beta, L, hero, pw, Lb, clean
+            return sampler, active, depth, o_next, d_next, beta, L, hero, pw, Lb, clean, hw
 
         if emitters or self.ambient is None:
             # the hero wavelength that drives distance sampling is drawn once per path
             hero = mi.UInt32(dr.minimum(sampler.next_1d(active) * 4.0, 3.0))
             state = (sampler, active, mi.UInt32(0), mi.Point3f(ray.o), mi.Vector3f(ray.d),
                      mi.Spectrum(1.0), mi.Spectrum(0.0), hero, mi.Spectrum(0.25), mi.Spectrum(0.0),
-                     mi.Bool(True))
+                     mi.Bool(True), [mi.Float(1.0) for _ in emitters])
             state = dr.while_loop(state, cond, body,
                                   labels=("sampler", "active", "depth", "o", "d", "beta", "L", "hero", "pw",
-                                          "Lb", "clean"),
+                                          "Lb", "clean", "hw"),
                                   label="rigsim_vol")
             L, Lb = state[6], state[9]
         else:
