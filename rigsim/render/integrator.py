@@ -256,6 +256,19 @@ def equiangular_pdf(o, d, p_light, t_max, t):
     return dr.select((dth > 0) & (t >= 0) & (t <= t_max), pdf, 0.0)
 
 
+def _cell_densities(phase):
+    """ψ cell edges (rad, 0…π) of a rigsim water phase plugin and each component's realised
+    density per steradian in each cell, shape (K, cells)."""
+    import numpy as np
+
+    psi = np.asarray(phase.tables.grid.psi_edges, np.float64).copy()
+    psi[0], psi[-1] = 0.0, np.pi
+    v = 2.0 * np.sin(psi / 2.0) ** 2
+    v[0], v[-1] = 0.0, 2.0
+    omega = 2.0 * np.pi * np.diff(v)
+    return psi, np.asarray(phase.realised_masses, np.float64)[:phase.K] / omega[None, :]
+
+
 class PhaseAngleTable:
     """The water phase function as a density in the scattering angle ψ (per radian).
 
@@ -277,14 +290,8 @@ class PhaseAngleTable:
     def __init__(self, phase):
         import numpy as np
 
-        t = phase.tables
-        psi = np.asarray(t.grid.psi_edges, np.float64).copy()
-        psi[0], psi[-1] = 0.0, np.pi
-        v = 2.0 * np.sin(psi / 2.0) ** 2
-        v[0], v[-1] = 0.0, 2.0
-        omega = 2.0 * np.pi * np.diff(v)
+        psi, dens = _cell_densities(phase)  # (K, n), 1/sr
         K = phase.K
-        dens = np.asarray(phase.realised_masses, np.float64)[:K] / omega[None, :]  # (K, n), 1/sr
         cdf = np.concatenate([np.zeros((K, 1)), np.cumsum(dens * np.diff(psi)[None, :], axis=1)], axis=1)
         self.phase = phase
         self.K, self.n = K, dens.shape[1]
@@ -374,15 +381,9 @@ class AureoleTable:
     def __init__(self, phase):
         import numpy as np
 
-        t = phase.tables
-        edges = np.asarray(t.grid.psi_edges, np.float64).copy()
-        edges[0], edges[-1] = 0.0, np.pi
-        v = 2.0 * np.sin(edges / 2.0) ** 2
-        v[0], v[-1] = 0.0, 2.0
-        omega = 2.0 * np.pi * np.diff(v)
-        K = phase.K
-        wbar = np.asarray(t.weights, np.float64).mean(axis=0)[:K]
-        dens = (wbar[:, None] * np.asarray(phase.realised_masses, np.float64)[:K]).sum(0) / omega  # 1/sr
+        edges, dens_k = _cell_densities(phase)
+        wbar = np.asarray(phase.tables.weights, np.float64).mean(axis=0)[:phase.K]
+        dens = (wbar[:, None] * dens_k).sum(0)  # p̄ per cell, 1/sr
         dpsi = np.diff(edges)
         G = np.concatenate([np.cumsum((dens * dpsi)[::-1])[::-1], [0.0]])  # G at the cell edges
         mass = 0.5 * (G[:-1] + G[1:]) * dpsi
