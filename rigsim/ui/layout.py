@@ -227,7 +227,7 @@ def build(app) -> None:
                     with v3.VCol(cols=12, lg=6):
                         with v3.VCard(variant="outlined"):
                             with v3.VCardTitle(classes="d-flex align-center text-subtitle-1"):
-                                html.Span("{{ preview_title || 'Predicted photograph' }}")
+                                html.Span("{{ preview_title || 'Predicted photograph' }}", id="preview-title")
                                 v3.VSpacer()
                                 v3.VProgressCircular(v_if="preview_busy", indeterminate=True, size=18, width=2,
                                                      color="primary")

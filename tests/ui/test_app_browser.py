@@ -70,16 +70,18 @@ def _state(page) -> dict:
         loc = page.locator(f"#m-{key}")
         metrics[key] = loc.text_content() if loc.count() else None
     return {"info": page.locator("#preview-info").text_content(),
+            "title": page.locator("#preview-title").text_content(),
             "src": page.locator("#preview-img").get_attribute("src"), "metrics": metrics}
 
 
-def _wait_new_preview(page, before: dict, timeout_s: float = 40.0) -> dict:
-    """Wait until the preview shows a newer generation, and nothing is pending."""
+def _wait_new_preview(page, before: dict, timeout_s: float = 40.0, want: str | None = None) -> dict:
+    """Wait until the preview shows a newer generation (whose title contains ``want``, when
+    given: the conditions just chosen), and nothing is pending."""
     deadline = time.time() + timeout_s
     while time.time() < deadline:
         now = _state(page)
         busy = page.locator(".v-card-title .v-progress-circular").count() > 0
-        if now["info"] != before["info"] and now["src"] and not busy:
+        if now["info"] != before["info"] and now["src"] and not busy and (want is None or want in now["title"]):
             return now
         time.sleep(0.3)
     raise AssertionError(f"the preview did not update: {before['info']!r}")
@@ -107,7 +109,7 @@ def test_page_edit_compare_and_files(server):
 
         # water preset: coastal → clear
         _choose(page, "water-sel", "clear")
-        clear = _wait_new_preview(page, first)
+        clear = _wait_new_preview(page, first, want="· clear ·")
         assert clear["src"] != first["src"], "the predicted image did not change with the water"
         assert clear["metrics"]["contrast_radiance"] != first["metrics"]["contrast_radiance"]
         assert clear["metrics"]["backscatter_share"] != first["metrics"]["backscatter_share"]
