@@ -464,10 +464,6 @@ class _Segment:
 # ---------------------------------------------------------------------------------------
 # The integrator
 # ---------------------------------------------------------------------------------------
-def _mean4(s):
-    return (s[0] + s[1] + s[2] + s[3]) * 0.25
-
-
 def _dot4(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
 
@@ -534,29 +530,25 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
         self._world_radius = float(world_radius_m)
         return self
 
+    def _cached(self, cache: dict, cls, phase, needs: tuple[str, ...]):
+        """``cls(phase)`` for a rigsim water phase function, kept per phase object (None for others)."""
+        if not all(hasattr(phase, a) for a in needs):
+            return None
+        hit = cache.get(id(phase))
+        if hit is None or hit[0] is not phase:
+            if len(cache) > 16:
+                cache.clear()
+            hit = (phase, cls(phase))
+            cache[id(phase)] = hit
+        return hit[1]
+
     def _phase_table(self, phase):
         """The ψ table of a rigsim water phase function (None for other phase functions)."""
-        if not all(hasattr(phase, a) for a in ("realised_masses", "tables", "_weights", "_cell_of")):
-            return None
-        hit = self._tables.get(id(phase))
-        if hit is None or hit[0] is not phase:
-            if len(self._tables) > 16:
-                self._tables.clear()
-            hit = (phase, PhaseAngleTable(phase))
-            self._tables[id(phase)] = hit
-        return hit[1]
+        return self._cached(self._tables, PhaseAngleTable, phase, ("realised_masses", "tables", "_weights", "_cell_of"))
 
     def _aureole_table(self, phase):
         """The :class:`AureoleTable` of a rigsim water phase function (None for other phase functions)."""
-        if not all(hasattr(phase, a) for a in ("realised_masses", "tables", "_cell_of")):
-            return None
-        hit = self._aureoles.get(id(phase))
-        if hit is None or hit[0] is not phase:
-            if len(self._aureoles) > 16:
-                self._aureoles.clear()
-            hit = (phase, AureoleTable(phase))
-            self._aureoles[id(phase)] = hit
-        return hit[1]
+        return self._cached(self._aureoles, AureoleTable, phase, ("realised_masses", "tables", "_cell_of"))
 
     # -- scene checks -----------------------------------------------------------------
     def _scene_info(self, scene, medium):
