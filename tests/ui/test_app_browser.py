@@ -64,14 +64,22 @@ def server(tmp_path_factory):
     log.close()
 
 
+_STATE_JS = """() => {
+  const text = (sel) => { const el = document.querySelector(sel); return el ? el.textContent : null; };
+  const img = document.querySelector('#preview-img');
+  const metrics = {};
+  for (const k of ['contrast_radiance', 'contrast_image', 'backscatter_share', 'snr_white', 'delta_e_mean'])
+    metrics[k] = text('#m-' + k);
+  return {info: text('#preview-info'), title: text('#preview-title'),
+          src: img ? img.getAttribute('src') : null, metrics: metrics,
+          busy: document.querySelectorAll('.v-card-title .v-progress-circular').length > 0};
+}"""
+
+
 def _state(page) -> dict:
-    metrics = {}
-    for key in ("contrast_radiance", "contrast_image", "backscatter_share", "snr_white", "delta_e_mean"):
-        loc = page.locator(f"#m-{key}")
-        metrics[key] = loc.text_content() if loc.count() else None
-    return {"info": page.locator("#preview-info").text_content(),
-            "title": page.locator("#preview-title").text_content(),
-            "src": page.locator("#preview-img").get_attribute("src"), "metrics": metrics}
+    """The preview's title, info, image and numbers, read in one go inside the page: read one
+    by one, an update arriving between the reads paired new titles with old numbers."""
+    return page.evaluate(_STATE_JS)
 
 
 def _wait_new_preview(page, before: dict, timeout_s: float = 40.0, want: str | None = None) -> dict:
@@ -80,8 +88,7 @@ def _wait_new_preview(page, before: dict, timeout_s: float = 40.0, want: str | N
     deadline = time.time() + timeout_s
     while time.time() < deadline:
         now = _state(page)
-        busy = page.locator(".v-card-title .v-progress-circular").count() > 0
-        if now["info"] != before["info"] and now["src"] and not busy and (want is None or want in now["title"]):
+        if now["info"] != before["info"] and now["src"] and not now["busy"] and (want is None or want in now["title"]):
             return now
         time.sleep(0.3)
     raise AssertionError(f"the preview did not update: {before['info']!r}")
