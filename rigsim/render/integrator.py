@@ -89,6 +89,14 @@ estimation), ``L_ind`` everything else.
   ``q = min(max_i β_i / rr_threshold, 0.95)`` (``rr_threshold`` = 0.05): a path whose
   weight fell to 1e-4 (a direction drawn toward a light where the phase function is
   small) is lifted to 0.05, not to a full-weight path that may then see a strobe.
+* **Target next-event estimation** (``target_nee``, on): at the first scattering vertex
+  of each camera path, a point uniform by area on the opaque shapes, kept if it is the
+  first surface seen from the vertex, brings its direct light (BSDF × every light), combined
+  by the power heuristic with the continuation, which reaches the same point with its
+  direction density.  In edge-lit water the lit chart is the brightest thing the dark water
+  beside it sees, and phase sampling found it only rarely: in the demo's edge-lit coastal
+  scene at 1 m the per-pixel error at the 99th percentile fell from 1.03 to 0.76 of the local
+  mean and the maximum from 4.9 to 2.6, for ~22 % more time per path.
 * **Halo next-event estimation** (``halo_nee``, on): at every medium vertex, for each
   light, a direction from the :class:`AureoleTable`, a traced segment along it, an
   equiangular sample on it and a shadow ray estimate the light's halo (light scattered
@@ -508,6 +516,7 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
             raise ConfigError(f"light_directed must be in [0, 1), got {self.cone}",
                               field="integrator.light_directed")
         self.halo = bool(props.get("halo_nee", True))
+        self.target_nee = bool(props.get("target_nee", True))
         self.aureole = float(props.get("aureole", DEFAULT_AUREOLE))
         if not 0.0 <= self.aureole <= 1.0:
             raise ConfigError(f"aureole must be in [0, 1], got {self.aureole}", field="integrator.aureole")
@@ -581,7 +590,18 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
             raise ConfigError(f"{PLUGIN_NAME} handles one medium boundary, found {n_null}", field="integrator")
         if medium is not None and not medium.is_homogeneous():
             raise ConfigError(f"{PLUGIN_NAME} handles homogeneous media only", field="integrator")
-        info = (emitters,)
+        # the opaque shapes (targets), for next-event estimation of their reflected light from
+        # medium vertices: a shape chosen by area, a point uniform on it (density 1/total area)
+        opaque_shapes = [sh for sh in scene.shapes() if not mi.has_flag(sh.bsdf().flags(), mi.BSDFFlags.Null)]
+        targets = None
+        if opaque_shapes:
+            import numpy as np
+
+            areas = np.array([float(np.asarray(sh.surface_area()).ravel()[0]) for sh in opaque_shapes])
+            if np.all(np.isfinite(areas)) and areas.sum() > 0:
+                targets = (mi.ShapePtr(opaque_shapes), mi.DiscreteDistribution(mi.Float(areas.astype(np.float32))),
+                           dr.opaque(mi.Float, 1.0 / float(areas.sum())))
+        info = (emitters, targets)
         if len(self._checked) > 32:
             self._checked.clear()
         self._checked[key] = (scene, info)
@@ -661,7 +681,7 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
 
     # -- Mitsuba interface ----------------------------------------------------------------
     def sample(self, scene, sampler, ray, medium=None, active=True):
-        (emitters,) = self._scene_info(scene, medium)
+        (emitters, targets) = self._scene_info(scene, medium)
         ray = mi.Ray3f(ray)
         active = mi.Bool(active)
         wavelengths = ray.wavelengths
@@ -684,16 +704,18 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
             aureole = self._aureole_table(phase) if self.aureole > 0 else None
             cone = self.cone > 0 and len(emitters) > 0
             halo = self.halo and aureole is not None and eq and cone
+            tnee = self.target_nee and targets is not None and len(emitters) > 0
             wbar = table.weights(wavelengths) if table is not None else None
         else:
             sigma_t = None
+            tnee = False
         light_pos = [e.sample_position(time, mi.Point2f(0.5), active)[0].p for e in emitters]
         bsdf_ctx = mi.BSDFContext()
 
-        def cond(sampler, active, depth, o, d, beta, L, hero, pw, Lb, clean, hw):
+        def cond(sampler, active, depth, o, d, beta, L, hero, pw, Lb, clean, hw, qs):
             return active
 
-        def body(sampler, active, depth, o, d, beta, L, hero, pw, Lb, clean, hw):
+        def body(sampler, active, depth, o, d, beta, L, hero, pw, Lb, clean, hw, qs):
             # ---- termination: depth limit, zero throughput, Russian roulette
             active &= (depth + 1 < max_depth) & dr.any(beta != 0.0)
             q = dr.minimum(dr.max(beta) * (1.0 / self.rr_threshold), 0.95)
@@ -805,6 +827,48 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                     ph_w = dr.select(pdf_mix > 0, ph_val / pdf_mix, 0.0)
                     ph_pdf = pdf_mix
                 hw_next = [mi.Float(1.0) for _ in emitters]
+                qs_next = mi.Float(0.0)
+                if tnee:
+                    # ---- next-event estimation of the targets' reflected light from the first
+                    # scattering vertex of camera paths: a point y uniform on the opaque shapes (by
+                    # area), kept if it is the first surface seen from here, its direct light; MIS
+                    # (power) against the continuation, which reaches the same y with the direction
+                    # density ph_pdf (its surface NEE then carries the complementary weight, see qs).
+                    # A lit chart is a bright area source that the dark water beside it otherwise
+                    # sees only by phase sampling (only the first vertex: at every vertex it cost
+                    # +70 % time for little more gain).
+                    deep_t = med & (depth == 0) & (depth + 2 < max_depth)
+                    shapes_t, distr_t, inv_area_t = targets
+                    idx_t = distr_t.sample(sampler.next_1d(deep_t), deep_t)
+                    sh_t = dr.gather(mi.ShapePtr, shapes_t, idx_t, deep_t)
+                    ps_t = sh_t.sample_position(time, sampler.next_2d(deep_t), deep_t)
+                    v_t = ps_t.p - x_c
+                    dist_t = dr.norm(v_t)
+                    ok_t = deep_t & (dist_t > 0)
+                    w_t = v_t / dist_t
+                    ray_t = mi.Ray3f(x_c, w_t, time, wavelengths)
+                    si_t = scene.ray_intersect(ray_t, ok_t)
+                    ok_t &= si_t.is_valid() & (dr.abs(si_t.t - dist_t) <= 1e-4 * dist_t + 1e-5)
+                    bsdf_t = si_t.bsdf(ray_t)
+                    ok_t &= ~mi.has_flag(bsdf_t.flags(), mi.BSDFFlags.Null)
+                    cos_t = dr.abs(dr.dot(si_t.n, w_t))
+                    p_sa = dr.select(cos_t > 0, inv_area_t * dr.square(si_t.t) / cos_t, 0.0)  # per sr
+                    if cone:
+                        axes_t = [dr.normalize(light_pos[k] - x_c) for k in range(len(emitters))]
+                        p_cont = self._directed_pdf(w_t, lambda w: phase.eval_pdf(ctx, mei_c, w, med)[1],
+                                                    axes_t, aureole)
+                    else:
+                        p_cont = phase.eval_pdf(ctx, mei_c, w_t, ok_t)[1]
+                    ph_t, _ = phase.eval_pdf(ctx, mei_c, w_t, ok_t)
+                    lit = mi.Spectrum(0.0)
+                    for em in emitters:
+                        val_t, ds_t = self._light(scene, si_t, em, sigma_t, ok_t)
+                        lit += bsdf_t.eval(bsdf_ctx, si_t, si_t.to_local(ds_t.d), ok_t) * val_t
+                    w_over_p = p_sa / (p_sa * p_sa + p_cont * p_cont) if self.mis == "power" else 1.0 / (p_sa + p_cont)
+                    w_over_p = dr.select(dr.isfinite(w_over_p), w_over_p, 0.0)
+                    c_t = beta * w_med * ph_t * dr.exp(-sigma_t * si_t.t) * lit * w_over_p
+                    L += dr.select(ok_t & (p_sa > 0) & dr.all(dr.isfinite(c_t)), c_t, 0.0)
+                    qs_next = dr.select(deep_t, ph_pdf, 0.0)
                 if halo:
                     # ---- next-event estimation of each light's halo from this vertex: a direction
                     # from the aureole table, an equiangular sample on it, a shadow ray; MIS (power)
@@ -856,10 +920,15 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
             # direct light on the surface at the end of the segment, for every path (weight β T(t_s):
             # its expected value over whether the distance sample reaches the surface), so that a
             # target seen through turbid water gets it from every camera sample
+            w_hit = mi.Float(1.0)
+            if tnee:  # against the target NEE made at the segment's origin (if it was a medium vertex)
+                cos_h = dr.abs(dr.dot(si.n, d))
+                p_sa_h = dr.select(cos_h > 0, targets[2] * dr.square(si.t) / cos_h, 0.0)
+                w_hit = dr.select(qs > 0, self.mis_weight(qs, p_sa_h), 1.0)
             for em in emitters:
                 val, ds = self._light(scene, si, em, sigma_t, hit)
                 f = bsdf.eval(bsdf_ctx, si, si.to_local(ds.d), hit)
-                L += dr.select(hit, beta_hit * f * val, 0.0)
+                L += dr.select(hit, beta_hit * f * val * w_hit, 0.0)
             bs, bw = bsdf.sample(bsdf_ctx, si, sampler.next_1d(surf), sampler.next_2d(surf), surf)
             wo_s = si.to_world(bs.wo)
             pdf_s = bs.pdf
@@ -882,19 +951,22 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
             clean &= ~surf  # the path has been reflected by a surface: no longer backscatter
             if has_medium:
                 hw = [dr.select(med, hw_next[k], 1.0) for k in range(len(emitters))]
+                qs = dr.select(med, qs_next, 0.0)
+            else:
+                qs = mi.Float(0.0)
             depth = dr.select(cont, depth + 1, depth)
             active &= cont
-            return sampler, active, depth, o_next, d_next, beta, L, hero, pw, Lb, clean, hw
+            return sampler, active, depth, o_next, d_next, beta, L, hero, pw, Lb, clean, hw, qs
 
         if emitters or self.ambient is None:
             # the hero wavelength that drives distance sampling is drawn once per path
             hero = mi.UInt32(dr.minimum(sampler.next_1d(active) * 4.0, 3.0))
             state = (sampler, active, mi.UInt32(0), mi.Point3f(ray.o), mi.Vector3f(ray.d),
                      mi.Spectrum(1.0), mi.Spectrum(0.0), hero, mi.Spectrum(0.25), mi.Spectrum(0.0),
-                     mi.Bool(True), [mi.Float(1.0) for _ in emitters])
+                     mi.Bool(True), [mi.Float(1.0) for _ in emitters], mi.Float(0.0))
             state = dr.while_loop(state, cond, body,
                                   labels=("sampler", "active", "depth", "o", "d", "beta", "L", "hero", "pw",
-                                          "Lb", "clean", "hw"),
+                                          "Lb", "clean", "hw", "qs"),
                                   label="rigsim_vol")
             L, Lb = state[6], state[9]
         else:

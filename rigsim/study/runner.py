@@ -77,7 +77,7 @@ def run_study(spec: StudySpec, out: str | Path, *, scheduler: str | None = None,
         Address of a running dask scheduler (``tcp://host:8786``); None: an embedded
         ``LocalCluster``.
     workers
-        Worker processes of the embedded cluster (default 1: Dr.Jit already uses every core).
+        Worker processes of the embedded cluster (default :func:`rigsim.parallel.default_workers`).
     serial
         Compute in this process without dask (debugging; results are identical).
     progress
