@@ -149,7 +149,8 @@ from rigsim.errors import ConfigError
 from rigsim.render.variant import mitsuba
 
 __all__ = ["RigsimVolIntegrator", "PLUGIN_NAME", "INTEGRATORS", "integrator_dict", "with_integrator",
-           "equiangular_sample", "equiangular_pdf", "T_CAP_OPTICAL_DEPTH"]
+           "equiangular_sample", "equiangular_pdf", "sample_target_point", "target_table",
+           "T_CAP_OPTICAL_DEPTH"]
 
 mi, dr = mitsuba()
 
@@ -424,6 +425,34 @@ class AureoleTable:
         return dr.select(sa > 0, g / (2.0 * dr.pi * sa), 0.0)
 
 
+def target_table(scene):
+    """``(ShapePtr array, DiscreteDistribution over areas, 1/total area)`` of the scene's opaque
+    shapes (the targets), or None if it has none."""
+    import numpy as np
+
+    shapes = [sh for sh in scene.shapes() if not mi.has_flag(sh.bsdf().flags(), mi.BSDFFlags.Null)]
+    if not shapes:
+        return None
+    areas = np.array([float(np.asarray(sh.surface_area()).ravel()[0]) for sh in shapes])
+    if not (np.all(np.isfinite(areas)) and areas.sum() > 0):
+        return None
+    return (mi.ShapePtr(shapes), mi.DiscreteDistribution(mi.Float(areas.astype(np.float32))),
+            dr.opaque(mi.Float, 1.0 / float(areas.sum())))
+
+
+def sample_target_point(targets, time, u_shape, u_pos, active):
+    """A point uniform by area on the scene's opaque shapes (density ``targets[2]`` = 1/total area).
+
+    ``targets`` is ``(ShapePtr array, DiscreteDistribution over their areas, 1/total area)``
+    as built by :class:`RigsimVolIntegrator`'s scene check; a shape is chosen with
+    probability ∝ its area, then Mitsuba's ``sample_position`` (uniform on the shape).
+    """
+    shapes, distr, _ = targets
+    idx = distr.sample(u_shape, active)
+    sh = dr.gather(mi.ShapePtr, shapes, idx, active)
+    return sh.sample_position(time, u_pos, active)
+
+
 class _Segment:
     """Equiangular geometry of one ray segment and one light, with the θ density
 
@@ -592,16 +621,7 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
             raise ConfigError(f"{PLUGIN_NAME} handles homogeneous media only", field="integrator")
         # the opaque shapes (targets), for next-event estimation of their reflected light from
         # medium vertices: a shape chosen by area, a point uniform on it (density 1/total area)
-        opaque_shapes = [sh for sh in scene.shapes() if not mi.has_flag(sh.bsdf().flags(), mi.BSDFFlags.Null)]
-        targets = None
-        if opaque_shapes:
-            import numpy as np
-
-            areas = np.array([float(np.asarray(sh.surface_area()).ravel()[0]) for sh in opaque_shapes])
-            if np.all(np.isfinite(areas)) and areas.sum() > 0:
-                targets = (mi.ShapePtr(opaque_shapes), mi.DiscreteDistribution(mi.Float(areas.astype(np.float32))),
-                           dr.opaque(mi.Float, 1.0 / float(areas.sum())))
-        info = (emitters, targets)
+        info = (emitters, target_table(scene))
         if len(self._checked) > 32:
             self._checked.clear()
         self._checked[key] = (scene, info)
@@ -838,10 +858,9 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                     # sees only by phase sampling (only the first vertex: at every vertex it cost
                     # +70 % time for little more gain).
                     deep_t = med & (depth == 0) & (depth + 2 < max_depth)
-                    shapes_t, distr_t, inv_area_t = targets
-                    idx_t = distr_t.sample(sampler.next_1d(deep_t), deep_t)
-                    sh_t = dr.gather(mi.ShapePtr, shapes_t, idx_t, deep_t)
-                    ps_t = sh_t.sample_position(time, sampler.next_2d(deep_t), deep_t)
+                    inv_area_t = targets[2]
+                    ps_t = sample_target_point(targets, time, sampler.next_1d(deep_t), sampler.next_2d(deep_t),
+                                               deep_t)
                     v_t = ps_t.p - x_c
                     dist_t = dr.norm(v_t)
                     ok_t = deep_t & (dist_t > 0)

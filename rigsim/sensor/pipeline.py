@@ -279,7 +279,7 @@ def _resampled_mosaic(img: np.ndarray, pattern: str, shape) -> np.ndarray:
 def auto_exposure(spectral_image, sensor: Sensor, *, lens: Lens = Lens(), iso: float | None = None,
                   percentile: float = 99.0, target: float = 0.8,
                   temperature_c: float | None = None, flash_shutter_s: float = 1 / 125,
-                  mask: np.ndarray | None = None) -> Exposure:
+                  mask: np.ndarray | None = None, highlight_clip_pct: float = 0.5) -> Exposure:
     """Exposure that puts the ``percentile`` of the raw signal at ``target`` × saturation.
 
     Continuous light only: the shutter time is chosen.  With strobes (a ``flash`` layer)
@@ -301,6 +301,11 @@ def auto_exposure(spectral_image, sensor: Sensor, *, lens: Lens = Lens(), iso: f
     mask
         Optional (rows, cols) boolean meter region of the render (a spot meter: e.g. the
         chart); the percentile is taken over its pixels only.
+    highlight_clip_pct
+        With a spot meter, at most this percentage of the whole frame's pixels may saturate
+        (highlight protection, as a camera's metering does): where the region around the spot
+        is brighter than the spot — a chart lost in bright backscatter — the exposure is held
+        down to it instead of clipping the frame white.
     """
     if not (0 < percentile <= 100) or not (0 < target <= 1):
         raise ConfigError("auto-exposure needs 0 < percentile <= 100 and 0 < target <= 1",
@@ -308,6 +313,12 @@ def auto_exposure(spectral_image, sensor: Sensor, *, lens: Lens = Lens(), iso: f
     iso = sensor.base_iso if iso is None else iso
     probe = Exposure(1.0, iso, lens, temperature_c)
     cont, flash = (mosaic(x, sensor.cfa_pattern) for x in _electrons_parts(spectral_image, sensor, probe))
+    frame = None
+    if mask is not None and highlight_clip_pct is not None:
+        if not 0 <= highlight_clip_pct < 100:
+            raise ConfigError(f"highlight_clip_pct must be in [0, 100), got {highlight_clip_pct}",
+                              field="--auto-exposure")
+        frame = (cont, flash, 100.0 - float(highlight_clip_pct))
     if mask is not None:
         m = np.asarray(mask, bool)
         if m.shape != cont.shape or not m.any():
@@ -316,8 +327,17 @@ def auto_exposure(spectral_image, sensor: Sensor, *, lens: Lens = Lens(), iso: f
     goal = target * sensor.saturation_e(iso)
     has_flash = "flash" in spectral_image.layers and float(flash.max()) > 0
 
+    def highlights(t, fs):
+        """Electrons at the frame's highlight percentile (0 without a spot meter)."""
+        if frame is None:
+            return 0.0
+        fc, ff, q = frame
+        return float(np.percentile(fc * t + ff * fs, q))
+
     def level(t, fs):
-        return float(np.percentile(cont * t + flash * fs, percentile))
+        # the spot's percentile, or the frame's highlights scaled so that reaching ``goal``
+        # means reaching saturation, whichever comes first
+        return max(float(np.percentile(cont * t + flash * fs, percentile)), target * highlights(t, fs))
 
     if not has_flash or level(flash_shutter_s, 0.0) >= goal:
         lv = level(1.0, 0.0)
@@ -338,10 +358,13 @@ def auto_exposure(spectral_image, sensor: Sensor, *, lens: Lens = Lens(), iso: f
     if lv <= 0:
         raise ConfigError("auto-exposure: the image is black", field="--auto-exposure",
                           allowed="a render with light, or a fixed --shutter")
+    hl = highlights(t, 1.0)
     best = iso
     for s_ in sensor.iso_settings:
         if s_.iso < iso:
             continue
+        if sensor.saturation_e(s_.iso) < hl:
+            break  # this ISO would saturate more of the frame than highlight_clip_pct allows
         best = s_.iso
         if target * sensor.saturation_e(s_.iso) <= lv:
             break

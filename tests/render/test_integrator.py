@@ -3,7 +3,8 @@
 * albedo 0: equals the Beer–Lambert strobe law (and ``volpath``'s ``direct`` pass);
 * single scattering along one ray from a point light: equals quadrature of the
   single-scattering integral (in the equiangular angle, where it is smooth);
-* the equiangular/phase-weighted distance sampler realises the density it reports;
+* the equiangular/phase-weighted distance sampler, the aureole directions and the target
+  points of the target NEE realise the densities they report;
 * per-pixel Z-tests against ``volpath`` on a small coastal scene (white patch +
   one strobe) from independent seeds: single scattering (both estimators have
   finite variance) in CI, full depth marked slow (``volpath``'s NEE near a strobe
@@ -25,6 +26,8 @@ from rigsim.render.integrator import (
     AureoleTable,
     PhaseAngleTable,
     integrator_dict,
+    sample_target_point,
+    target_table,
     with_integrator,
 )
 from rigsim.render.mitsuba_scene import build_mitsuba_scene
@@ -197,6 +200,33 @@ def test_aureole_sampler_realises_its_density():
         est, se = x.mean(), x.std() / np.sqrt(n)
         omega = 2 * np.pi * (np.cos(lo) - np.cos(hi))
         assert abs(est - omega) < 4 * se + 2e-3 * omega, (np.degrees([lo, hi]), est, omega, se)
+
+
+def test_target_point_sampler_realises_its_density():
+    """The target NEE's points (a shape by area, a point uniform on it, density 1/total area):
+    ``E[|cos θ_y| / (d² p_A)]`` over the samples is the solid angle the shapes subtend from a
+    point, here two facing disks of different radii and distances (exact: 2π(1 − h/√(h²+R²)))."""
+    T = mi.ScalarTransform4f
+    scene = mi.load_dict({"type": "scene",
+                          "a": {"type": "disk", "to_world": T().translate([0, 0, 1.0]).scale(0.3)},
+                          "b": {"type": "disk", "to_world": T().translate([0, 0, -2.0]).scale(0.8)}})
+    targets = target_table(scene)
+    assert abs(float(targets[2][0]) - 1.0 / (np.pi * (0.3 ** 2 + 0.8 ** 2))) < 1e-6
+    n = 1 << 20
+    rng = np.random.default_rng(7)
+    ps = sample_target_point(targets, mi.Float(0.0), mi.Float(rng.random(n)),
+                             mi.Point2f(mi.Float(rng.random(n)), mi.Float(rng.random(n))), mi.Bool(True))
+    p = np.stack([np.asarray(c) for c in ps.p])
+    nrm = np.stack([np.asarray(c) for c in ps.n])
+    d2 = (p ** 2).sum(0)
+    cos = np.abs((nrm * p).sum(0)) / np.sqrt(d2)
+    x = cos / (d2 * float(targets[2][0]))
+    est, se = x.mean(), x.std() / np.sqrt(n)
+    exact = sum(2 * np.pi * (1 - h / np.hypot(h, r)) for h, r in ((1.0, 0.3), (2.0, 0.8)))
+    assert abs(est - exact) < 4 * se + 1e-3 * exact, (est, exact, se)
+    # each disk gets its share of the area
+    share_a = np.mean(p[2] > 0)
+    assert abs(share_a - 0.09 / 0.73) < 4 * np.sqrt(0.12 * 0.88 / n)
 
 
 def _pair(max_depth, *, n, spp, integrator=None):

@@ -90,6 +90,32 @@ def test_auto_exposure_hits_target(chart):
         auto_exposure(flat_image(0.0), s)
 
 
+def test_spot_metering_protects_the_frames_highlights():
+    """A dim spot in a 2–6× brighter frame (a chart lost in backscatter): metering the spot alone
+    would clip the whole frame; with highlight protection at most 0.5 % of it saturates, and a
+    spot in a darker frame is still metered to the target."""
+    s = load_sensor("sony_ilce-7rm2")
+    ramp = np.linspace(2e-3, 6e-3, 40 * 60).reshape(40, 60)  # distinct values: no ties at the percentile
+    rad = np.repeat(ramp[..., None], len(WL), axis=2)
+    spot = np.zeros((40, 60), bool)
+    spot[15:25, 25:35] = True
+    rad[spot] = 1e-3
+    si = SpectralImage(rad, WL, BW)
+    loose = auto_exposure(si, s, percentile=99, target=0.8, mask=spot, highlight_clip_pct=99.9)
+    cap = capture(si, s, loose, noise=NoiseSwitches.off(), develop=None)
+    assert np.mean(cap.electrons[~spot] >= s.saturation_e(s.base_iso)) > 0.9
+    ex = auto_exposure(si, s, percentile=99, target=0.8, mask=spot)
+    cap = capture(si, s, ex, noise=NoiseSwitches.off(), develop=None)
+    assert np.mean(cap.electrons >= s.saturation_e(ex.iso) * (1 - 1e-9)) <= 0.006
+    assert np.percentile(cap.electrons, 99.5) == pytest.approx(s.saturation_e(ex.iso), rel=2e-3)
+    # the frame darker than the spot: the spot is metered as before
+    rad2 = np.where(spot[..., None], 4e-3, 1e-3) * np.ones(len(WL))
+    si2 = SpectralImage(rad2, WL, BW)
+    ex2 = auto_exposure(si2, s, percentile=99, target=0.5, mask=spot)
+    cap2 = capture(si2, s, ex2, noise=NoiseSwitches.off(), develop=None)
+    assert np.percentile(cap2.electrons[spot], 99) == pytest.approx(0.5 * s.saturation_e(s.base_iso), rel=1e-3)
+
+
 def test_full_well_clipping():
     s = load_sensor("action_cam_1-2.3in")
     cap = capture(flat_image(10.0), s, Exposure(1.0, 100, Lens(2.0)), develop=None)
