@@ -203,8 +203,15 @@ def write_report(study_dir: str | Path) -> Path:
                    + "".join(f"<th>{html.escape(c)}</th>" for c in cols) + f"</tr>{trs}</table>")
     total_t = sum(t["wall_time_s"] or 0 for t in timings)
     r = spec["render"]
+    spp_text = f"{r['spp']} samples per pixel"
+    if r.get("noise_target"):
+        used = sorted({int(x["spp"]) for x in rows if x.get("spp")})
+        span = f"{used[0]}–{used[-1]}" if len(used) > 1 else (f"{used[0]}" if used else "?")
+        spp_text = (f"{span} samples per pixel (batches of {r['spp']} until the Monte Carlo noise, 99th "
+                    f"percentile of pixels, is below {r['noise_target']:g} of the local mean; at most "
+                    f"{r.get('max_spp') or 8 * r['spp']}; column spp of results.csv)")
     sec.append("<h2>Inputs</h2>"
-               f"<p>Rendered at {r['width']}×{r['height']} pixels, {r['spp']} samples per pixel, "
+               f"<p>Rendered at {r['width']}×{r['height']} pixels, {spp_text}, "
                f"{len(r['wavelengths_nm'])} bands {min(r['wavelengths_nm']):g}–{max(r['wavelengths_nm']):g} nm, "
                f"engine {html.escape(str(r['engine']))}; {len(timings)} scenes in {total_t:.0f} s of compute.</p>"
                f"<pre>{html.escape(json.dumps(spec, indent=1))}</pre>")

@@ -65,14 +65,16 @@ def compute_case(spec: StudySpec, case: Case) -> dict:
         from rigsim.render import render as _render
 
         si = _render(scene, width=rs.width, height=rs.height, spp=rs.spp, seed=seed, integrator=rs.integrator,
-                     wavelengths_nm=rs.wavelengths_nm, layers=("range_m", "object_id", "backscatter"))
+                     wavelengths_nm=rs.wavelengths_nm, layers=("range_m", "object_id", "backscatter"),
+                     noise_target=rs.noise_target, max_spp=rs.max_spp)
     masks = target_masks(np.asarray(si.layers["object_id"]), si.meta.get("object_ids", {}), target_kind)
     has_flash = "flash" in si.layers
     base = {"rig": case.rig_name, "water": case.water_name, "target": target_kind if target_kind != "mesh"
             else case.target, "distance_m": case.distance_m, "depth_m": case.depth_m,
             "c_550_per_m": float(water.c_per_m(550.0)), "b_550_per_m": float(water.b_per_m(550.0)),
             "a_550_per_m": float(water.a_per_m(550.0)),
-            "width": rs.width, "height": rs.height, "spp": rs.spp if rs.engine != "preview" else None,
+            "width": rs.width, "height": rs.height, "spp": si.meta.get("spp") if rs.engine != "preview" else None,
+            "mc_noise_p99": max((si.meta.get("noise_p99") or {}).values(), default=None),
             "engine": rs.engine, "integrator": rs.integrator if rs.engine != "preview" else None,
             "case_id": spec.case_id(case)}
     base.update(scene_metrics(si, target_kind, masks=masks)[0])  # sensor-independent numbers

@@ -24,6 +24,8 @@
     wavelengths = "400:700:10"
     engine = "mitsuba"      # or "preview"
     integrator = "rigsim"   # or "volpath"
+    noise_target = 0.2      # optional: more batches of spp until the Monte Carlo noise is below this
+    max_spp = 512           # optional: ... but at most this many paths per pixel (default 8 × spp)
 
     [capture]
     exposure = "auto"       # or "manual" with iso, shutter_s
@@ -63,7 +65,7 @@ TARGETS = ("colorchecker", "black-disk", "white-disk", "slanted-edge", "bottom")
 
 _STUDY_KEYS = ("name", "description", "seed")
 _SWEEP_KEYS = ("rigs", "sensors", "waters", "distances_m", "targets", "depth_m", "target_fill")
-_RENDER_KEYS = ("width", "height", "spp", "wavelengths", "engine", "integrator")
+_RENDER_KEYS = ("width", "height", "spp", "wavelengths", "engine", "integrator", "noise_target", "max_spp")
 _CAPTURE_KEYS = ("exposure", "iso", "shutter_s", "white_balance", "demosaic", "target_percentile",
                  "target_level")
 _METRIC_KEYS = ("contrast_threshold",)
@@ -80,6 +82,10 @@ class RenderSettings:
     wavelengths_nm: tuple[float, ...] = tuple(np.arange(400.0, 701.0, 10.0))
     engine: str = "mitsuba"
     integrator: str = "rigsim"
+    #: render in batches of ``spp`` until the noise (:func:`rigsim.render.renderer.relative_noise_p99`)
+    #: is below this, up to ``max_spp`` (None: one batch)
+    noise_target: float | None = None
+    max_spp: int | None = None
 
 
 @dataclass(frozen=True)
@@ -152,7 +158,9 @@ class StudySpec:
 
     def case_id(self, case: Case) -> str:
         """Stable id of a case: readable prefix + hash of everything that changes its result."""
-        payload = {"case": case.key(), "render": asdict(self.render), "capture": asdict(self.capture),
+        render = {k: v for k, v in asdict(self.render).items()
+                  if not (k in ("noise_target", "max_spp") and v is None)}  # ids of older studies stay
+        payload = {"case": case.key(), "render": render, "capture": asdict(self.capture),
                    "sensors": list(self.sensors), "seed": self.seed}
         h = hashlib.sha1(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:10]
         safe = lambda s: "".join(c if c.isalnum() or c in "-_." else "-" for c in s)  # noqa: E731
@@ -218,6 +226,10 @@ def load_study(path: str | Path, *, quick: bool = False) -> StudySpec:
     study = doc.get("study", {})
     sweep = dict(doc["sweep"])
     render = dict(doc.get("render", {}))
+    if quick:
+        # the quick run renders one batch unless [quick] asks for a noise target itself
+        for k in ("noise_target", "max_spp"):
+            render.pop(k, None)
     if quick and "quick" in doc:
         for k, v in doc["quick"].items():
             (sweep if k in _SWEEP_KEYS else render)[k] = v
@@ -289,7 +301,14 @@ def load_study(path: str | Path, *, quick: bool = False) -> StudySpec:
         width=int(get_number(render, "width", file=path, prefix="render.", default=128, minimum=8, maximum=8192)),
         height=int(get_number(render, "height", file=path, prefix="render.", default=96, minimum=8, maximum=8192)),
         spp=int(get_number(render, "spp", file=path, prefix="render.", default=64, minimum=1, maximum=1 << 20)),
-        wavelengths_nm=tuple(float(x) for x in wls), engine=engine, integrator=integ)
+        wavelengths_nm=tuple(float(x) for x in wls), engine=engine, integrator=integ,
+        noise_target=get_number(render, "noise_target", file=path, prefix="render.", default=None, minimum=0.0,
+                                exclusive_minimum=True, maximum=10.0),
+        max_spp=(None if "max_spp" not in render else
+                 int(get_number(render, "max_spp", file=path, prefix="render.", minimum=1, maximum=1 << 24))))
+    if rs.max_spp is not None and rs.max_spp < rs.spp:
+        raise ConfigError(f"max_spp {rs.max_spp} is below spp {rs.spp}", file=path, field="render.max_spp",
+                          allowed=f">= spp ({rs.spp})")
 
     cap = doc.get("capture", {})
     mode = cap.get("exposure", "auto")

@@ -252,3 +252,38 @@ def test_wavelengths_as_a_range_string_or_bad_values():
         band_edges(["blue"], None)
     with pytest.raises(ConfigError, match="cannot read wavelengths"):
         band_edges("400-700", None)
+
+
+# --------------------------------------------------------------------------- noise target
+def test_relative_noise_p99_matches_the_chi_distribution():
+    """Batches of a flat image with Gaussian noise σ: the per-pixel standard error of the mean
+    is σ/√n · s/σ, s/σ ~ √(χ²_{n−1}/(n−1)); its 99th percentile is known exactly."""
+    from scipy.stats import chi2
+
+    from rigsim.render.renderer import relative_noise_p99
+
+    rng = np.random.default_rng(3)
+    sigma, n = 0.3, 4
+    batches = [1.0 + sigma * rng.standard_normal((200, 200, 1)) for _ in range(n)]
+    expect = sigma / np.sqrt(n) * np.sqrt(chi2.ppf(0.99, n - 1) / (n - 1))
+    assert relative_noise_p99(batches) == pytest.approx(expect, rel=0.03)
+    # relative to the local mean: scaling the image changes nothing; a noise-free image has none
+    assert relative_noise_p99([5 * b for b in batches]) == pytest.approx(relative_noise_p99(batches), rel=1e-9)
+    assert relative_noise_p99([np.ones((20, 20, 3))] * 3) == 0.0
+
+
+def test_noise_target_renders_more_batches_until_it_is_met():
+    scene = disk_scene(preset("coastal"), [make_light("strobe", position=(0.2, 0.0, 0.0))], distance=1.0,
+                       size=0.4)
+    kw = dict(width=16, height=12, spp=4, seed=5, wavelengths_nm=[450.0, 550.0, 650.0], layers=())
+    easy = render(scene, noise_target=9.0, **kw)  # met as soon as it can be measured: two batches
+    assert easy.meta["spp"] == 8 and easy.meta["noise_p99"]["strobe:full"] <= 9.0
+    hard = render(scene, noise_target=1e-4, max_spp=16, **kw)  # never met: stops at max_spp
+    assert hard.meta["spp"] == 16 and hard.meta["noise_p99"]["strobe:full"] > 1e-4
+    assert hard.meta["spp_per_pass"] == {"strobe:full": 16}
+    plain = render(scene, **kw)
+    assert plain.meta["spp"] == 4 and plain.meta["noise_p99"] is None
+    with pytest.raises(ConfigError, match="noise_target"):
+        render(scene, noise_target=-1.0, **kw)
+    with pytest.raises(ConfigError, match="max_spp"):
+        render(scene, noise_target=0.1, max_spp=2, **kw)

@@ -88,6 +88,8 @@ def test_typo_fails_before_rendering(tmp_path, monkeypatch):
         ("spp = 2", "spp = -2", r"render.spp: out of range"),
         ("spp = 2", "sp = 2", r"render.sp: unknown key 'sp'"),
         ('rigs = ["', 'rigs = ["nope/', r"sweep.rigs\[0\].*file not found"),
+        ("spp = 2", "spp = 2\nnoise_target = -0.1", r"render.noise_target: out of range"),
+        ("spp = 2", "spp = 2\nnoise_target = 0.1\nmax_spp = 1", r"render.max_spp: max_spp 1 is below spp 2"),
     ]
     for old, new, pattern in cases:
         p = tiny(tmp_path)
@@ -106,6 +108,9 @@ def test_demo_study_is_valid_and_big_enough():
     assert len(spec.waters) >= 4 and len(spec.distances_m) >= 6
     quick = load_study(ROOT / "studies" / "demo.toml", quick=True)
     assert len(quick.cases()) < len(spec.cases())
+    # the demo renders until its noise target; the quick run (CI) one batch
+    assert spec.render.noise_target == 0.2 and spec.render.max_spp == 512
+    assert quick.render.noise_target is None and quick.render.max_spp is None
 
 
 @pytest.mark.render
