@@ -31,7 +31,11 @@ def render_cmd(
                                help="colorchecker | black-disk | white-disk | slanted-edge | bottom | MESH.obj/.ply"),
     target_size: float = typer.Option(None, "--target-size", help="Target size, m (default: its real size)."),
     size: str = typer.Option("256x192", "--size", help="Image size WIDTHxHEIGHT in pixels."),
-    spp: int = typer.Option(64, "--spp", help="Paths per pixel."),
+    spp: int = typer.Option(64, "--spp", help="Paths per pixel (per batch with --noise-target)."),
+    noise_target: float = typer.Option(None, "--noise-target",
+                                       help="Render batches of --spp until the Monte Carlo noise (99th percentile "
+                                            "of pixels, relative to the local mean) is below this, e.g. 0.2."),
+    max_spp: int = typer.Option(None, "--max-spp", help="Most paths per pixel for --noise-target (default 8 × spp)."),
     seed: int = typer.Option(0, "--seed", help="Random seed."),
     wavelengths: str = typer.Option("400:700:10", "--wavelengths", help="Band centres START:STOP:STEP, nm."),
     split: bool = typer.Option(False, "--split", help="Also render the direct-only and backscatter-only layers."),
@@ -85,7 +89,7 @@ def render_cmd(
                       TextColumn("{task.percentage:>3.0f}%"), TimeRemainingColumn()) as prog:
             task = prog.add_task("", total=1.0)
             si = render(scene, width=width, height=height, spp=spp, seed=seed, wavelengths_nm=wl, layers=layers,
-                        split=split, integrator=integrator,
+                        split=split, integrator=integrator, noise_target=noise_target, max_spp=max_spp,
                         progress=lambda f, msg: prog.update(task, completed=f, description=msg))
     out.mkdir(parents=True, exist_ok=True)
     si.save(out)  # spectral.npz (radiance + every layer) and meta.json
@@ -114,6 +118,7 @@ def render_cmd(
     meta = dict(si.meta)
     meta["inputs"] = {"rig": str(rig), "water": water, "distance_m": distance, "target": target,
                       "target_size_m": scene.targets[0].size_m, "width": width, "height": height, "spp": spp,
+                      "noise_target": noise_target, "max_spp": max_spp,
                       "seed": seed, "engine": engine, "integrator": integrator, "split": split,
                       "depth_m": depth, "sun_zenith_deg": sun_zenith if depth is not None else None,
                       "daylight_model": daylight_model if depth is not None else None, "wavelengths_nm": wl.tolist()}

@@ -52,3 +52,18 @@ def test_render_bad_input_is_one_line(tmp_path):
     r = run("render", "rigs/twin-strobes-45-wide.toml", "--water", "coastal", "--distance", "1", "--size", "10by4",
             "--out", str(tmp_path / "x"))
     assert r.returncode == 2 and "--size" in r.stderr
+
+
+@pytest.mark.render
+def test_render_noise_target(tmp_path):
+    """--noise-target renders batches of --spp until the noise is met or --max-spp is reached."""
+    out = tmp_path / "n"
+    r = run("render", "rigs/twin-strobes-45-wide.toml", "--water", "coastal", "--distance", "1.5",
+            "--size", "24x16", "--spp", "2", "--noise-target", "1e-6", "--max-spp", "6", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    meta = json.loads((out / "meta.json").read_text())
+    assert meta["spp_per_pass"]["strobe:full"] == 6 and meta["inputs"]["noise_target"] == 1e-6
+    assert meta["noise_p99"]["strobe:full"] > 1e-6
+    r = run("render", "rigs/twin-strobes-45-wide.toml", "--water", "coastal", "--distance", "1.5",
+            "--noise-target", "0", "--out", str(tmp_path / "x"))
+    assert r.returncode == 2 and "noise_target" in r.stderr and r.stderr.strip().count("\n") == 0
