@@ -391,6 +391,7 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
         if geom_scene is None:
             geom_scene = ms
         imgs, bss = [], []
+        key = f"{g}:{m}"
         while True:
             aov: dict = {}
             # batch 0 keeps the seeds of a plain render; later batches get their own
@@ -404,13 +405,13 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
             if noise_target is None or m != "full":
                 break
             if len(imgs) >= 2:
-                noise[f"{g}:{m}"] = relative_noise_p99(imgs)
-                if noise[f"{g}:{m}"] <= noise_target:
+                noise[key] = relative_noise_p99(imgs)
+                if noise[key] <= noise_target:
                     break
             if (len(imgs) + 1) * spp > max_spp:
                 break
             total += per_pass  # progress: one more batch
-        spp_used[f"{g}:{m}"] = spp * len(imgs)
+        spp_used[key] = spp * len(imgs)
         results[(g, m)] = np.mean(imgs, axis=0).astype(np.float32)
         if with_bs:
             results[(g, "backscatter")] = np.mean(bss, axis=0).astype(np.float32)
