@@ -546,6 +546,7 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
             raise ConfigError(f"light_directed must be in [0, 1), got {self.cone}",
                               field="integrator.light_directed")
         self.halo = bool(props.get("halo_nee", True))
+        self.surface_halo = bool(props.get("surface_halo", True))
         self.target_nee = bool(props.get("target_nee", True))
         self.aureole = float(props.get("aureole", DEFAULT_AUREOLE))
         if not 0.0 <= self.aureole <= 1.0:
@@ -686,13 +687,14 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
             wo = dr.select(pick & ~use_au, _cone_sample(axes[k], u_a), wo)
             if h > 0:
                 wo = dr.select(pick & use_au, aureole.sample(axes[k], u_a.x, u_a.y), wo)
-        return wo, self._directed_pdf(wo, pdf_of, axes, aureole)
+        return wo, self._directed_pdf(wo, pdf_of(wo), axes, aureole)
 
-    def _directed_pdf(self, wo, pdf_of, axes, aureole):
-        """Density of :meth:`_directed` at ``wo`` (``axes``: unit directions to the lights)."""
+    def _directed_pdf(self, wo, pdf_wo, axes, aureole):
+        """Density of :meth:`_directed` at ``wo`` (``pdf_wo``: the default technique's density
+        there, ``axes``: unit directions to the lights)."""
         K = len(axes)
         c, h = self.cone, (self.aureole if aureole is not None else 0.0)
-        pdf = (1.0 - c) * pdf_of(wo)
+        pdf = (1.0 - c) * pdf_wo
         for k in range(K):
             pk = (1.0 - h) * _cone_pdf(axes[k], wo)
             if h > 0:
@@ -732,6 +734,52 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
             tnee = False
         light_pos = [e.sample_position(time, mi.Point2f(0.5), active)[0].p for e in emitters]
         bsdf_ctx = mi.BSDFContext()
+
+        def halo_nee(sampler, make_ray, f_pdf_of, axes, axis, p_light, em, active, p_choice=1.0):
+            """A light's halo at a vertex (next-event estimation, without the path weight).
+
+            A direction from the light's aureole around ``axis`` (unit, toward ``p_light``), a
+            traced segment along it, an equiangular sample on it and a shadow ray to ``em``;
+            power-heuristic MIS against the vertex's continuation (:meth:`_directed`), whose
+            next segment weighs the light by ``mis_weight(p_cont, p_choice p_aureole)``.
+            ``make_ray(w)``: the ray leaving the vertex, ``f_pdf_of(w)``: (phase value or
+            BSDF × cosine, the default technique's density), ``axes``: the directions to all
+            lights, ``p_choice``: probability that this light was the one chosen.
+            """
+            w_h = aureole.sample(axis, sampler.next_1d(active), sampler.next_1d(active))
+            pa = aureole.pdf(axis, w_h) * p_choice
+            f1, f1_pdf = f_pdf_of(w_h)
+            pm = self._directed_pdf(w_h, f1_pdf, axes, aureole)
+            r_h = make_ray(w_h)
+            si_h = scene.ray_intersect(r_h, active)
+            t_sh = dr.select(si_h.is_valid(), si_h.t, dr.inf)
+            seg_h = _Segment(r_h.o, w_h, p_light, dr.minimum(t_sh, t_cap), table, wbar, self.alpha)
+            t_h, pdf_h = seg_h.sample(sampler.next_1d(active), sampler.next_1d(active), sampler.next_1d(active))
+            ok_h = active & (pa > 0) & (pdf_h > 0) & (t_h < t_sh)
+            x_h = r_h.o + w_h * t_h
+            mei_h = self._medium_interaction(x_h, w_h, t_h, wavelengths, time, medium_ptr)
+            val_h, ds_h = self._light(scene, mei_h, em, sigma_t, ok_h)
+            ph2, _ = phase.eval_pdf(mi.PhaseFunctionContext(sampler), mei_h, ds_h.d, ok_h)
+            T_h = dr.exp(-sigma_t * t_h)
+            # (value / pa) × MIS weight, in a form that stays finite for tiny pa
+            w_over_pa = pa / (pa * pa + pm * pm) if self.mis == "power" else 1.0 / (pa + pm)
+            w_over_pa = dr.select(dr.isfinite(w_over_pa), w_over_pa, 0.0)
+            c_h = f1 * w_over_pa * (T_h * sigma_s / pdf_h) * ph2 * val_h
+            # a product that overflows (inf · 0 in one wavelength; ~4 in 2·10⁶ paths of the
+            # demo's jerlov-II cases) is dropped here rather than the whole path sample
+            return dr.select(ok_h & dr.all(dr.isfinite(c_h)), c_h, 0.0)
+
+        em_ptrs = mi.EmitterPtr(emitters) if emitters else None
+
+        def pick_light(sampler, axes, active):
+            """One light chosen uniformly: (index, EmitterPtr, axis, position)."""
+            K = len(axes)
+            k = mi.UInt32(dr.minimum(sampler.next_1d(active) * K, K - 1))
+            axis, pos = axes[0], light_pos[0]
+            for j in range(1, K):
+                axis = dr.select(k == j, axes[j], axis)
+                pos = dr.select(k == j, light_pos[j], pos)
+            return k, dr.gather(mi.EmitterPtr, em_ptrs, k, active), axis, pos
 
         def cond(sampler, active, depth, o, d, beta, L, hero, pw, Lb, clean, hw, qs):
             return active
@@ -876,11 +924,18 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                     ph_t, p_cont = phase.eval_pdf(ctx, mei_c, w_t, ok_t)
                     if cone:  # the continuation's mixture density at w_t
                         axes_t = [dr.normalize(light_pos[k] - x_c) for k in range(len(emitters))]
-                        p_cont = self._directed_pdf(w_t, lambda _w, p_=p_cont: p_, axes_t, aureole)
+                        p_cont = self._directed_pdf(w_t, p_cont, axes_t, aureole)
                     lit = mi.Spectrum(0.0)
                     for em in emitters:
                         val_t, ds_t = self._light(scene, si_t, em, sigma_t, ok_t)
                         lit += bsdf_t.eval(bsdf_ctx, si_t, si_t.to_local(ds_t.d), ok_t) * val_t
+                    if halo and self.surface_halo:  # and the lights' halos seen from y, as a surface hit gets them (below)
+                        ok_y = ok_t & (depth + 3 < max_depth)
+                        axes_y = [dr.normalize(light_pos[k] - si_t.p) for k in range(len(emitters))]
+                        ky, em_y, axis_y, pos_y = pick_light(sampler, axes_y, ok_y)
+                        lit += halo_nee(sampler, si_t.spawn_ray,
+                                        lambda w: bsdf_t.eval_pdf(bsdf_ctx, si_t, si_t.to_local(w), ok_y),
+                                        axes_y, axis_y, pos_y, em_y, ok_y, 1.0 / len(emitters))
                     w_over_p = p_sa / (p_sa * p_sa + p_cont * p_cont) if self.mis == "power" else 1.0 / (p_sa + p_cont)
                     w_over_p = dr.select(dr.isfinite(w_over_p), w_over_p, 0.0)
                     c_t = beta * w_med * ph_t * dr.exp(-sigma_t * si_t.t) * lit * w_over_p
@@ -891,35 +946,14 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                     # from the aureole table, an equiangular sample on it, a shadow ray; MIS (power)
                     # with the continuation, whose next segment then weighs light k by hw_next[k]
                     axes_c = [dr.normalize(light_pos[k] - x_c) for k in range(len(emitters))]
-                    pdf_of_c = (lambda w: phase.eval_pdf(ctx, mei_c, w, med)[1])
                     deeper = med & (depth + 2 < max_depth)
                     beta_c = beta * w_med
                     for k, em in enumerate(emitters):
                         pa_cont = aureole.pdf(axes_c[k], wo)
                         hw_next[k] = dr.select(deeper, self.mis_weight(pdf_mix, pa_cont), 1.0)
-                        w_h = aureole.sample(axes_c[k], sampler.next_1d(deeper), sampler.next_1d(deeper))
-                        pa = aureole.pdf(axes_c[k], w_h)
-                        pm = self._directed_pdf(w_h, pdf_of_c, axes_c, aureole)
-                        ph1, _ = phase.eval_pdf(ctx, mei_c, w_h, deeper)
-                        r_h = mi.Ray3f(x_c, w_h, time, wavelengths)
-                        si_h = scene.ray_intersect(r_h, deeper)
-                        t_sh = dr.select(si_h.is_valid(), si_h.t, dr.inf)
-                        seg_h = _Segment(x_c, w_h, light_pos[k], dr.minimum(t_sh, t_cap), table, wbar, self.alpha)
-                        t_h, pdf_h = seg_h.sample(sampler.next_1d(deeper), sampler.next_1d(deeper),
-                                                  sampler.next_1d(deeper))
-                        ok_h = deeper & (pa > 0) & (pdf_h > 0) & (t_h < t_sh)
-                        x_h = x_c + w_h * t_h
-                        mei_h = self._medium_interaction(x_h, w_h, t_h, wavelengths, time, medium_ptr)
-                        val_h, ds_h = self._light(scene, mei_h, em, sigma_t, ok_h)
-                        ph2, _ = phase.eval_pdf(ctx, mei_h, ds_h.d, ok_h)
-                        T_h = dr.exp(-sigma_t * t_h)
-                        # (value / pa) × MIS weight, in a form that stays finite for tiny pa
-                        w_over_pa = pa / (pa * pa + pm * pm) if self.mis == "power" else 1.0 / (pa + pm)
-                        w_over_pa = dr.select(dr.isfinite(w_over_pa), w_over_pa, 0.0)
-                        c_h = beta_c * ph1 * w_over_pa * (T_h * sigma_s / pdf_h) * ph2 * val_h
-                        # a product that overflows (inf · 0 in one wavelength; ~4 in 2·10⁶ paths of the
-                        # demo's jerlov-II cases) is dropped here rather than the whole path sample
-                        c_h = dr.select(ok_h & dr.all(dr.isfinite(c_h)), c_h, 0.0)
+                        c_h = beta_c * halo_nee(sampler, lambda w: mi.Ray3f(x_c, w, time, wavelengths),
+                                                lambda w: phase.eval_pdf(ctx, mei_c, w, deeper),
+                                                axes_c, axes_c[k], light_pos[k], em, deeper)
                         L += c_h
                         Lb += dr.select(clean, c_h, 0.0)
                 med &= ph_pdf > 0
@@ -946,6 +980,20 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                 val, ds = self._light(scene, si, em, sigma_t, hit)
                 f = bsdf.eval(bsdf_ctx, si, si.to_local(ds.d), hit)
                 L += dr.select(hit, beta_hit * f * val * w_hit, 0.0)
+            hw_s = [mi.Float(1.0) for _ in emitters]
+            if has_medium and halo and self.surface_halo:
+                # the lights' halos seen from the surface (the water glowing around a strobe, seen
+                # from the chart: light scattered once near the strobe), by next-event estimation as
+                # at water vertices, for every path whose segment ends here (weight β T(t_s), like the
+                # direct light); the continuation from the surface weighs them by hw_s.  Without it
+                # they came only from the surface's light-directed continuations: a few paths with
+                # the chart's full halo light, fireflies in the dark water beside an edge-lit chart.
+                axes_s = [dr.normalize(light_pos[k] - si.p) for k in range(len(emitters))]
+                hit_h = hit & (depth + 2 < max_depth)
+                _, em_s, axis_s, pos_s = pick_light(sampler, axes_s, hit_h)
+                c_sh = halo_nee(sampler, si.spawn_ray, lambda w: bsdf.eval_pdf(bsdf_ctx, si, si.to_local(w), hit_h),
+                                axes_s, axis_s, pos_s, em_s, hit_h, 1.0 / len(emitters))
+                L += dr.select(hit_h, beta_hit * c_sh * w_hit, 0.0)
             bs, bw = bsdf.sample(bsdf_ctx, si, sampler.next_1d(surf), sampler.next_2d(surf), surf)
             wo_s = si.to_world(bs.wo)
             pdf_s = bs.pdf
@@ -956,6 +1004,11 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                                              light_pos, aureole, sampler, surf)
                 f_s, _ = bsdf.eval_pdf(bsdf_ctx, si, si.to_local(wo_s), surf)
                 bw = dr.select(pdf_s > 0, f_s / pdf_s, 0.0)
+                if halo and self.surface_halo:
+                    for k in range(len(emitters)):
+                        hw_s[k] = dr.select(surf & (depth + 2 < max_depth),
+                                            self.mis_weight(pdf_s, aureole.pdf(axes_s[k], wo_s) / len(emitters)),
+                                            1.0)
             surf &= pdf_s > 0
             beta = dr.select(surf, beta * bw, beta)
             r_s = si.spawn_ray(wo_s)
@@ -967,7 +1020,7 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                 pw = pw_next
             clean &= ~surf  # the path has been reflected by a surface: no longer backscatter
             if has_medium:
-                hw = [dr.select(med, hw_next[k], 1.0) for k in range(len(emitters))]
+                hw = [dr.select(med, hw_next[k], dr.select(surf, hw_s[k], 1.0)) for k in range(len(emitters))]
                 qs = dr.select(med, qs_next, 0.0)
             else:
                 qs = mi.Float(0.0)
