@@ -104,6 +104,15 @@ estimation), ``L_ind`` everything else.
   once more near the strobe) directly, combined by the power heuristic with the
   continuation path, whose next segment weighs that light by the complementary weight.
   Without it the halo comes only from the share of continuations drawn toward a light.
+* **Halos seen from surfaces** (``surface_halo``, on): the same estimate from every surface
+  hit (weight ``β T(t_s)``, like the surface's direct light) and from the target point of the
+  target NEE, for one light chosen at random; the continuation from the surface weighs that
+  light's next segment by the complementary weight.  The strobe's glow is the brightest thing
+  a chart sees after the strobe itself, and the surface's light-directed continuations alone
+  brought it in few paths with the chart's full halo light: in the dark water beside an
+  edge-lit chart those were the fireflies (edge-lit coastal 1 m, 64 spp × 4: per-pixel error
+  at the 99th percentile 0.79 → 0.45 of the local mean, maximum 2.4 → 1.6; clear oceanic
+  jerlov-II: maxima 56 → 7 and 45 → 4.6), for about 32 % more render time.
 * **Backscatter from the same paths** (``backscatter_aov``): the light each path
   gathers before it first meets a surface is the estimate of the pass with black
   targets; it is returned as four AOVs, so the ``backscatter`` layer costs no second
@@ -515,7 +524,10 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
 
     Mitsuba properties: ``max_depth`` (int, −1: unlimited), ``rr_depth`` (int, 5),
     ``mis`` (``"power"`` or ``"balance"``), ``equiangular`` (bool, True; False leaves
-    distance sampling alone — for comparisons).
+    distance sampling alone — for comparisons), ``halo_nee``, ``target_nee``,
+    ``surface_halo`` (bool, True: the extra next-event estimations), ``light_directed``,
+    ``aureole``, ``phase_weighted``, ``equiangular_vertex``, ``rr_threshold`` (shares and
+    thresholds, see the module constants).
     """
 
     def __init__(self, props=None):

@@ -46,9 +46,12 @@ BW = 10.0
 W, H = 16, 12
 
 
-def _scene(water="coastal", *, reflectance=0.9):
-    light = make_light("strobe", position=(0.25, 0.0, 0.0), intensity=5.0)
-    return disk_scene(preset(water), [light], distance=1.0, size=0.5, reflectance=reflectance)
+def _scene(water="coastal", *, reflectance=0.9, two_lights=False):
+    lights = [make_light("strobe", position=(0.25, 0.0, 0.0), intensity=5.0)]
+    if two_lights:  # a second, weaker strobe on the other side, closer to the target
+        lights.append(make_light("strobe", position=(-0.3, 0.1, 0.5), aim=(0.5, -0.15, 0.85), intensity=2.0,
+                                  name="strobe-2"))
+    return disk_scene(preset(water), lights, distance=1.0, size=0.5, reflectance=reflectance)
 
 
 def _renders(ms, scene, *, n, spp, seed0):
@@ -232,10 +235,10 @@ def test_target_point_sampler_realises_its_density():
     assert abs(share_a - 0.09 / 0.73) < 4 * np.sqrt(0.12 * 0.88 / n)
 
 
-def _pair(max_depth, *, n, spp, integrator=None, n_ref=None, spp_ref=None, reference=None):
+def _pair(max_depth, *, n, spp, integrator=None, n_ref=None, spp_ref=None, reference=None, two_lights=False):
     """``n`` renders by rigsim_vol and ``n_ref`` by the reference: Mitsuba's ``volpath`` unless
     ``reference`` (integrator properties for another rigsim_vol) is given."""
-    scene = _scene()
+    scene = _scene(two_lights=two_lights)
     # volpath explicitly: build_mitsuba_scene's default is rigsim_vol (until 2026-11-22 these
     # tests built it with the default and so compared rigsim_vol with itself)
     ms = build_mitsuba_scene(scene, lights=scene.lights, max_depth=max_depth, integrator="volpath")
@@ -291,11 +294,12 @@ def test_deeper_paths_match_volpath_image_mean(max_depth):
     _assert_image_means_agree(a, b)
 
 
-@pytest.mark.parametrize("max_depth", [3, 4])
-def test_next_event_extras_are_unbiased_per_pixel(max_depth):
-    """The halo NEE (water vertices), the target NEE and the halos seen from surfaces change only
-    the noise: per-pixel Z-test against the same integrator without them."""
-    a, b = _pair(max_depth, n=8, spp=512, reference=_WITHOUT_NEE_EXTRAS)
+@pytest.mark.parametrize("max_depth,two_lights", [(3, False), (4, False), (4, True)])
+def test_next_event_extras_are_unbiased_per_pixel(max_depth, two_lights):
+    """The halo NEE (water vertices), the target NEE and the halos seen from surfaces (one light
+    chosen at random when there are two) change only the noise: per-pixel Z-test against the same
+    integrator without them."""
+    a, b = _pair(max_depth, n=8, spp=512, reference=_WITHOUT_NEE_EXTRAS, two_lights=two_lights)
     z, z_mean = _ztest(a, b)
     _assert_consistent(z, z_mean, 8)
 
