@@ -784,14 +784,14 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
         em_ptrs = mi.EmitterPtr(emitters) if emitters else None
 
         def pick_light(sampler, axes, active):
-            """One light chosen uniformly: (index, EmitterPtr, axis, position)."""
+            """One light chosen uniformly: (EmitterPtr, axis, position)."""
             K = len(axes)
             k = mi.UInt32(dr.minimum(sampler.next_1d(active) * K, K - 1))
             axis, pos = axes[0], light_pos[0]
             for j in range(1, K):
                 axis = dr.select(k == j, axes[j], axis)
                 pos = dr.select(k == j, light_pos[j], pos)
-            return k, dr.gather(mi.EmitterPtr, em_ptrs, k, active), axis, pos
+            return dr.gather(mi.EmitterPtr, em_ptrs, k, active), axis, pos
 
         def cond(sampler, active, depth, o, d, beta, L, hero, pw, Lb, clean, hw, qs):
             return active
@@ -941,10 +941,10 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                     for em in emitters:
                         val_t, ds_t = self._light(scene, si_t, em, sigma_t, ok_t)
                         lit += bsdf_t.eval(bsdf_ctx, si_t, si_t.to_local(ds_t.d), ok_t) * val_t
-                    if halo and self.surface_halo:  # and the lights' halos seen from y, as a surface hit gets them (below)
+                    if halo and self.surface_halo:  # and the lights' halos seen from y, as at a surface hit (below)
                         ok_y = ok_t & (depth + 3 < max_depth)
                         axes_y = [dr.normalize(light_pos[k] - si_t.p) for k in range(len(emitters))]
-                        ky, em_y, axis_y, pos_y = pick_light(sampler, axes_y, ok_y)
+                        em_y, axis_y, pos_y = pick_light(sampler, axes_y, ok_y)
                         lit += halo_nee(sampler, si_t.spawn_ray,
                                         lambda w: bsdf_t.eval_pdf(bsdf_ctx, si_t, si_t.to_local(w), ok_y),
                                         axes_y, axis_y, pos_y, em_y, ok_y, 1.0 / len(emitters))
@@ -1002,7 +1002,7 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                 # the chart's full halo light, fireflies in the dark water beside an edge-lit chart.
                 axes_s = [dr.normalize(light_pos[k] - si.p) for k in range(len(emitters))]
                 hit_h = hit & (depth + 2 < max_depth)
-                _, em_s, axis_s, pos_s = pick_light(sampler, axes_s, hit_h)
+                em_s, axis_s, pos_s = pick_light(sampler, axes_s, hit_h)
                 c_sh = halo_nee(sampler, si.spawn_ray, lambda w: bsdf.eval_pdf(bsdf_ctx, si, si.to_local(w), hit_h),
                                 axes_s, axis_s, pos_s, em_s, hit_h, 1.0 / len(emitters))
                 L += dr.select(hit_h, beta_hit * c_sh * w_hit, 0.0)
