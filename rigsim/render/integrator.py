@@ -511,6 +511,13 @@ class _Segment:
 # ---------------------------------------------------------------------------------------
 # The integrator
 # ---------------------------------------------------------------------------------------
+def _reflects(bsdf, ctx, si, active):
+    """Whether the surface reflects any light back on the side it is seen from (a black target
+    does not: its halo next-event estimation would cost rays for nothing)."""
+    wo = mi.Vector3f(0.0, 0.0, dr.select(si.wi.z < 0, -1.0, 1.0))
+    return dr.any(bsdf.eval(ctx, si, wo, active) > 0.0)
+
+
 def _dot4(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
 
@@ -942,7 +949,7 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                         val_t, ds_t = self._light(scene, si_t, em, sigma_t, ok_t)
                         lit += bsdf_t.eval(bsdf_ctx, si_t, si_t.to_local(ds_t.d), ok_t) * val_t
                     if halo and self.surface_halo:  # and the lights' halos seen from y, as at a surface hit (below)
-                        ok_y = ok_t & (depth + 3 < max_depth)
+                        ok_y = ok_t & (depth + 3 < max_depth) & _reflects(bsdf_t, bsdf_ctx, si_t, ok_t)
                         axes_y = [dr.normalize(light_pos[k] - si_t.p) for k in range(len(emitters))]
                         em_y, axis_y, pos_y = pick_light(sampler, axes_y, ok_y)
                         lit += halo_nee(sampler, si_t.spawn_ray,
@@ -993,6 +1000,7 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                 f = bsdf.eval(bsdf_ctx, si, si.to_local(ds.d), hit)
                 L += dr.select(hit, beta_hit * f * val * w_hit, 0.0)
             hw_s = [mi.Float(1.0) for _ in emitters]
+            halo_s = mi.Bool(False)  # the surface's halo NEE was made (its continuation then takes hw_s)
             if has_medium and halo and self.surface_halo:
                 # the lights' halos seen from the surface (the water glowing around a strobe, seen
                 # from the chart: light scattered once near the strobe), by next-event estimation as
@@ -1001,7 +1009,8 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                 # they came only from the surface's light-directed continuations: a few paths with
                 # the chart's full halo light, fireflies in the dark water beside an edge-lit chart.
                 axes_s = [dr.normalize(light_pos[k] - si.p) for k in range(len(emitters))]
-                hit_h = hit & (depth + 2 < max_depth)
+                halo_s = _reflects(bsdf, bsdf_ctx, si, hit)
+                hit_h = hit & (depth + 2 < max_depth) & halo_s
                 em_s, axis_s, pos_s = pick_light(sampler, axes_s, hit_h)
                 c_sh = halo_nee(sampler, si.spawn_ray, lambda w: bsdf.eval_pdf(bsdf_ctx, si, si.to_local(w), hit_h),
                                 axes_s, axis_s, pos_s, em_s, hit_h, 1.0 / len(emitters))
@@ -1018,7 +1027,7 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                 bw = dr.select(pdf_s > 0, f_s / pdf_s, 0.0)
                 if halo and self.surface_halo:
                     for k in range(len(emitters)):
-                        hw_s[k] = dr.select(surf & (depth + 2 < max_depth),
+                        hw_s[k] = dr.select(surf & (depth + 2 < max_depth) & halo_s,
                                             self.mis_weight(pdf_s, aureole.pdf(axes_s[k], wo_s) / len(emitters)),
                                             1.0)
             surf &= pdf_s > 0
