@@ -578,7 +578,6 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
         for name, v in (("equiangular_vertex", self.cont_eq), ("equiangular_vertex_camera", self.cont_eq0)):
             if not 0.0 <= v < 1.0:
                 raise ConfigError(f"{name} must be in [0, 1), got {v}", field=f"integrator.{name}")
-        self._checked: dict[int, tuple] = {}
         self._tables: dict[int, tuple] = {}
         self._aureoles: dict[int, tuple] = {}
         self.ambient = None
@@ -611,11 +610,15 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
 
     # -- scene checks -----------------------------------------------------------------
     def _scene_info(self, scene, medium):
-        """(emitters, light positions) after checking the scene is one this integrator handles."""
-        key = id(scene)
-        hit = self._checked.get(key)
-        if hit is not None and hit[0] is scene:
-            return hit[1]
+        """(emitters, target table) after checking the scene is one this integrator handles.
+
+        Not cached: ``sample`` runs once per render (it traces the kernel), and keeping the scene
+        here would make a reference cycle (scene → integrator → scene) through C++ that Python's
+        garbage collector cannot see: every rendered scene stayed alive with its shapes and
+        emitters registered, and each indirect call over them (a gathered ``ShapePtr`` or
+        ``EmitterPtr``) grew with every scene ever rendered in the process — renders slowed by
+        2–5× after a few dozen scenes (the test suite, a dataset, the UI).
+        """
         emitters = list(scene.emitters())
         for e in emitters:
             if not mi.has_flag(e.flags(), mi.EmitterFlags.DeltaPosition):
@@ -642,11 +645,7 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
             raise ConfigError(f"{PLUGIN_NAME} handles homogeneous media only", field="integrator")
         # the opaque shapes (targets), for next-event estimation of their reflected light from
         # medium vertices: a shape chosen by area, a point uniform on it (density 1/total area)
-        info = (emitters, target_table(scene))
-        if len(self._checked) > 32:
-            self._checked.clear()
-        self._checked[key] = (scene, info)
-        return info
+        return emitters, target_table(scene)
 
     # -- MIS ----------------------------------------------------------------------------
     def mis_weight(self, pdf_a, pdf_b):
