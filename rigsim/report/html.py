@@ -14,7 +14,7 @@ import numpy as np
 
 from rigsim.fileio import atomic_write_text
 
-__all__ = ["write_report", "summary_sentences", "sensor_sentences"]
+__all__ = ["write_report", "summary_sentences", "sensor_sentences", "noise_sentences"]
 
 
 def _read_csv(path: Path) -> list[dict]:
@@ -67,6 +67,41 @@ def summary_sentences(vis: list[dict], *, sensor: str | None = None, target: str
     return out
 
 
+def noise_sentences(rows: list[dict], noise_target: float | None, max_spp: int | None) -> list[str]:
+    """Which scenes stopped at ``max_spp`` with Monte Carlo noise above ``noise_target``.
+
+    ``rows``: results.csv rows (``mc_noise_p99`` per scene, repeated per sensor).  Their images
+    show render speckle and their image-based metrics (ΔE, SNR, image contrast) carry it; the
+    scene-radiance contrast and the visibility range are affected less (averages over regions).
+    """
+    if not noise_target:
+        return []
+    scenes: dict[tuple, float] = {}
+    for r in rows:
+        n = r.get("mc_noise_p99")
+        key = (r.get("rig"), r.get("water"), r.get("target"), r.get("distance_m"))
+        if n is not None:
+            scenes[key] = max(n, scenes.get(key, 0.0))
+    noisy: dict[tuple, list] = defaultdict(list)
+    for (rig, water, target, dist), n in scenes.items():
+        if n > noise_target:
+            noisy[(rig, water, target)].append((dist, n))
+    if not scenes:
+        return []
+    if not noisy:
+        return [f"Every scene reached the Monte Carlo noise target ({noise_target:g} of the local mean at the "
+                f"99th percentile of pixels)."]
+    n_noisy = sum(len(v) for v in noisy.values())
+    parts = []
+    for (rig, water, target), v in sorted(noisy.items(), key=lambda kv: tuple(str(x) for x in kv[0])):
+        v.sort(key=lambda x: x[0])
+        dists = ", ".join(f"{d:g}" for d, _ in v)
+        parts.append(f"{rig} in {water} ({target}) at {dists} m (noise up to {max(n for _, n in v):.2f})")
+    return [f"{n_noisy} of {len(scenes)} scenes stopped at {max_spp} paths per pixel with Monte Carlo noise above the "
+            f"target {noise_target:g}: " + "; ".join(parts) + ". Their images show render speckle, and their "
+            f"ΔE, SNR and image contrast carry it."]
+
+
 def sensor_sentences(rows: list[dict], sensors: list[str]) -> list[str]:
     """Plain-language comparison of the sensors: median SNR and ΔE over all cases of each."""
     out = []
@@ -110,6 +145,8 @@ def write_report(study_dir: str | Path) -> Path:
     for t in targets:
         items += summary_sentences(vis, sensor=sensors[0] if sensors else None, target=t)
     items += sensor_sentences(rows, sensors)
+    r_spec = spec["render"]
+    items += noise_sentences(rows, r_spec.get("noise_target"), r_spec.get("max_spp") or 8 * r_spec["spp"])
     sec.append("<h2>Summary</h2><ul>" + "".join(f"<li>{html.escape(s)}</li>" for s in items) + "</ul>"
                + f"<p>Visibility range: the distance at which the target's apparent contrast (luminance, "
                  f"noise-free scene radiance) falls below {thr * 100:g} %, interpolated in log-contrast over "
@@ -208,7 +245,7 @@ def write_report(study_dir: str | Path) -> Path:
         used = sorted({int(x["spp"]) for x in rows if x.get("spp")})
         span = f"{used[0]}–{used[-1]}" if len(used) > 1 else (f"{used[0]}" if used else "?")
         spp_text = (f"{span} samples per pixel (batches of {r['spp']} until the Monte Carlo noise, 99th "
-                    f"percentile of pixels, is below {r['noise_target']:g} of the local mean; at most "
+                    f"percentile of pixels in the noisiest colour, is below {r['noise_target']:g} of the local mean; at most "
                     f"{r.get('max_spp') or 8 * r['spp']}; column spp of results.csv)")
     sec.append("<h2>Inputs</h2>"
                f"<p>Rendered at {r['width']}×{r['height']} pixels, {spp_text}, "

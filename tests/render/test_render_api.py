@@ -272,6 +272,30 @@ def test_relative_noise_p99_matches_the_chi_distribution():
     assert relative_noise_p99([np.ones((20, 20, 3))] * 3) == 0.0
 
 
+def test_relative_noise_p99_sees_noise_in_one_colour_group():
+    """Noise in two of six bands: averaged over all bands it is 3× smaller than in its own
+    group, which is what the per-group measure reports (the largest group)."""
+    from scipy.stats import chi2
+
+    from rigsim.render.renderer import noise_groups, relative_noise_p99
+
+    rng = np.random.default_rng(5)
+    sigma, n = 0.3, 4
+    batches = []
+    for _ in range(n):
+        b = np.ones((200, 200, 6))
+        b[..., :2] += sigma * rng.standard_normal((200, 200, 2))
+        batches.append(b)
+    chi = np.sqrt(chi2.ppf(0.99, n - 1) / (n - 1))
+    in_group = sigma / np.sqrt(2) / np.sqrt(n) * chi  # mean of two noisy bands
+    groups = [[0, 1], [2, 3], [4, 5]]
+    assert relative_noise_p99(batches, groups=groups) == pytest.approx(in_group, rel=0.03)
+    assert relative_noise_p99(batches) == pytest.approx(in_group / 3, rel=0.03)
+    # the renderer's groups: blue / green / red by band centre
+    assert [list(g) for g in noise_groups([400, 450, 500, 550, 600, 650, 700])] == [[0, 1], [2, 3], [4, 5, 6]]
+    assert [list(g) for g in noise_groups([600, 650])] == [[0, 1]]
+
+
 def test_noise_target_renders_more_batches_until_it_is_met():
     scene = disk_scene(preset("coastal"), [make_light("strobe", position=(0.2, 0.0, 0.0))], distance=1.0,
                        size=0.4)
@@ -287,3 +311,4 @@ def test_noise_target_renders_more_batches_until_it_is_met():
         render(scene, noise_target=-1.0, **kw)
     with pytest.raises(ConfigError, match="max_spp"):
         render(scene, noise_target=0.1, max_spp=2, **kw)
+

@@ -109,8 +109,25 @@ def test_demo_study_is_valid_and_big_enough():
     quick = load_study(ROOT / "studies" / "demo.toml", quick=True)
     assert len(quick.cases()) < len(spec.cases())
     # the demo renders until its noise target; the quick run (CI) one batch
-    assert spec.render.noise_target == 0.2 and spec.render.max_spp == 512
+    assert spec.render.noise_target == 0.15 and spec.render.max_spp == 1024
     assert quick.render.noise_target is None and quick.render.max_spp is None
+
+
+def test_report_names_the_scenes_that_missed_the_noise_target():
+    from rigsim.report.html import noise_sentences
+
+    def row(water, dist, noise, sensor):
+        return {"rig": "edge", "water": water, "target": "colorchecker", "distance_m": dist,
+                "mc_noise_p99": noise, "sensor": sensor}
+
+    rows = [row("coastal", 3.0, 0.12, s) for s in ("a", "b")] + [
+        row("jerlov-II", 3.0, 0.41, "a"), row("jerlov-II", 3.0, 0.41, "b"), row("jerlov-II", 1.0, 0.3, "a")]
+    (s,) = noise_sentences(rows, 0.15, 1024)
+    assert s.startswith("2 of 3 scenes stopped at 1024 paths per pixel")
+    assert "edge in jerlov-II (colorchecker) at 1, 3 m (noise up to 0.41)" in s and "coastal" not in s
+    (s,) = noise_sentences(rows[:2], 0.15, 1024)
+    assert s.startswith("Every scene reached")
+    assert noise_sentences(rows, None, None) == []
 
 
 @pytest.mark.render
