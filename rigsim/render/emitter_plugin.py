@@ -62,13 +62,14 @@ class BeamPointEmitter(mi.Emitter):
         p = np.asarray(position, float)
         a = unit(aim)
         self.p_scalar = p
-        self.pos = mi.Point3f(*[float(x) for x in p])
-        self.axis = mi.Vector3f(*[float(x) for x in a])
+        # opaque: a literal would be compiled into the kernel, and every rig or aim a new kernel
+        self.pos = dr.opaque(mi.Point3f, [float(x) for x in p])
+        self.axis = dr.opaque(mi.Vector3f, [float(x) for x in a])
         self.intensity = intensity_texture
         self.beam = beam
         if beam.kind == "soft-cone":
-            self.half_rad = float(np.radians(beam.beam_angle_deg) / 2)
-            self.edge_p = float(beam.edge_exponent)
+            self.half_rad = dr.opaque(mi.Float, float(np.radians(beam.beam_angle_deg) / 2))
+            self.edge_p = dr.opaque(mi.Float, float(beam.edge_exponent))
             self.table = None
         else:
             ang = np.radians(np.asarray(beam.angle_deg, float))

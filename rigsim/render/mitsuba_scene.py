@@ -26,7 +26,7 @@ from rigsim.errors import ConfigError
 from rigsim.render.emitter_plugin import make_emitter
 from rigsim.render.phase_plugin import WaterPhaseFunction, make_phase
 from rigsim.render.spectra import regular_dict, spectrum_dict
-from rigsim.render.targets import MitsubaSurface, mitsuba_surfaces
+from rigsim.render.targets import MESH_TYPE, MitsubaSurface, mitsuba_surfaces
 from rigsim.render.variant import mitsuba
 from rigsim.scene.types import Scene
 
@@ -45,7 +45,6 @@ MODES = ("full", "clear", "direct", "backscatter")
 #: Smallest beam attenuation given to Mitsuba (1/m): c = 0 would make NaNs.
 C_FLOOR_PER_M = 1e-6
 WATER_KEY = "water_volume"
-MEDIUM_KEY = "water"
 
 
 @dataclass
@@ -97,9 +96,26 @@ def water_medium_dict(water, *, albedo_zero: bool = False, phase=None) -> dict:
             "phase": phase if phase is not None else _phase_for(water)}
 
 
+def _mesh(key: str, spec: dict, bsdf, medium):
+    """A ``mi.Mesh`` from a :data:`~rigsim.render.targets.MESH_TYPE` spec, with its BSDF and
+    (if not None) exterior medium; the vertices live in memory, not in the kernels."""
+    V = np.asarray(spec["vertex_positions"], np.float32)
+    F = np.asarray(spec["faces"], np.uint32)
+    props = mi.Properties()
+    props["bsdf"] = bsdf
+    if medium is not None:
+        props["exterior"] = medium
+    mesh = mi.Mesh(key, len(V), len(F), props=props)
+    params = mi.traverse(mesh)
+    params["vertex_positions"] = mi.Float(V.ravel())
+    params["faces"] = mi.UInt32(F.ravel())
+    params.update()
+    return mesh
+
+
 def build_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: int = -1,
                         rr_depth: int = 5, phase=None, integrator: str = "rigsim",
-                        ambient=None, backscatter_aov: bool = False) -> MitsubaScene:
+                        ambient=None, backscatter_aov: bool = False, flat_shapes: str = "mesh") -> MitsubaScene:
     """Load the Mitsuba scene of one render pass.
 
     Parameters
@@ -125,30 +141,43 @@ def build_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: 
     ambient
         Daylight field tables (:func:`rigsim.render.daylight.ambient_tables`) lighting this
         pass as well (rigsim integrator only), or None.
+    flat_shapes
+        ``"mesh"`` (default) or ``"mitsuba"``: see :func:`rigsim.render.targets.mitsuba_surfaces`.
     """
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}")
     R = world_radius(scene)
-    surfaces = mitsuba_surfaces(scene.camera, scene.targets)
+    surfaces = mitsuba_surfaces(scene.camera, scene.targets, flat_shapes=flat_shapes)
     from rigsim.render.integrator import integrator_dict  # registers the rigsim_vol plugin
 
     d: dict = {"type": "scene", "integrator": integrator_dict(integrator, max_depth=max_depth, rr_depth=rr_depth,
                                                                backscatter_aov=backscatter_aov)}
     has_water = scene.water is not None and mode != "clear"
-    if has_water:
-        d[MEDIUM_KEY] = water_medium_dict(scene.water, albedo_zero=(mode == "direct"), phase=phase)
-        d[WATER_KEY] = {"type": "sphere", "center": [float(x) for x in scene.camera.position_m], "radius": R,
-                        "bsdf": {"type": "null"}, "interior": {"type": "ref", "id": MEDIUM_KEY}}
-    for s in surfaces:
-        if mode == "backscatter":
-            refl = {"type": "uniform", "value": 0.0}
-        else:
-            refl = spectrum_dict(s.wavelength_nm, s.reflectance, name=s.label)
-        sd = dict(s.shape)
-        sd["bsdf"] = {"type": "twosided", "material": {"type": "diffuse", "reflectance": refl}}
+    medium_obj = None
+    try:
         if has_water:
-            sd["exterior"] = {"type": "ref", "id": MEDIUM_KEY}
-        d[s.key] = sd
+            # one medium object, the interior of the water sphere and the exterior of every target
+            medium_obj = mi.load_dict(water_medium_dict(scene.water, albedo_zero=(mode == "direct"), phase=phase))
+            d[WATER_KEY] = {"type": "sphere", "center": [float(x) for x in scene.camera.position_m], "radius": R,
+                            "bsdf": {"type": "null"}, "interior": medium_obj}
+        for s in surfaces:
+            if mode == "backscatter":
+                refl = {"type": "uniform", "value": 0.0}
+            else:
+                refl = spectrum_dict(s.wavelength_nm, s.reflectance, name=s.label)
+            bsdf = {"type": "twosided", "material": {"type": "diffuse", "reflectance": refl}}
+            if s.shape["type"] == MESH_TYPE:
+                d[s.key] = _mesh(s.key, s.shape, mi.load_dict(bsdf), medium_obj)
+                continue
+            sd = dict(s.shape)
+            sd["bsdf"] = bsdf
+            if has_water:
+                sd["exterior"] = medium_obj
+            d[s.key] = sd
+    except ConfigError:
+        raise
+    except Exception as e:  # noqa: BLE001 - turn Mitsuba's parser errors into one line
+        raise ConfigError(f"cannot build the Mitsuba scene: {str(e).splitlines()[0][:300]}") from None
     for i, light in enumerate(lights):
         if np.any(np.asarray(light.axial_intensity, float) > 0):
             d[f"light{i}"] = make_emitter(light)

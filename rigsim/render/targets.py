@@ -4,8 +4,16 @@ The geometry and reflectances of targets are defined once, in
 :mod:`rigsim.scene.targets` (``target_surfaces(target, camera)``: placement,
 ColorChecker layout, reflectance data, object ids), so that the renderer, the
 preview and the metrics' target layouts agree.  This module only turns those
-surfaces into Mitsuba ``rectangle``/``disk``/``obj``/``ply`` shapes and numbers them
-across all targets (object id 1… in scene order; 0 = nothing).
+surfaces into Mitsuba shapes and numbers them across all targets (object id 1… in scene
+order; 0 = nothing).
+
+Rectangles and disks become triangle meshes (:data:`MESH_TYPE`: vertex and face arrays, built
+into a ``mi.Mesh`` by :func:`rigsim.render.mitsuba_scene.build_mitsuba_scene`), not Mitsuba's
+``rectangle``/``disk`` shapes: those compile their placement into every kernel as constants, so
+each target distance of a sweep compiled the renderer's kernels anew (~5 s each); a mesh keeps
+its vertices in memory and one kernel serves every distance.  A rectangle is exactly two
+triangles; a disk is a regular polygon with :data:`DISK_SEGMENTS` sides whose area equals the
+disk's.  User meshes (``obj``/``ply``) are loaded by Mitsuba.
 """
 
 from __future__ import annotations
@@ -20,9 +28,15 @@ from rigsim.render.variant import mitsuba
 from rigsim.scene.targets import target_surfaces
 from rigsim.scene.types import Camera, Target
 
-__all__ = ["MitsubaSurface", "mitsuba_surfaces"]
+__all__ = ["MitsubaSurface", "mitsuba_surfaces", "MESH_TYPE", "DISK_SEGMENTS", "flat_mesh"]
 
 mi, dr = mitsuba()
+
+#: ``shape["type"]`` of a target piece given as vertex and face arrays.
+MESH_TYPE = "rigsim_mesh"
+#: Sides of the polygon that stands for a disk (area-preserving radius: its outline is within
+#: 0.005 % of the circle's radius on average, 0.01 % at most).
+DISK_SEGMENTS = 256
 
 
 @dataclass(frozen=True)
@@ -55,6 +69,28 @@ def _transform(m) -> mi.ScalarTransform4f:
     return mi.ScalarTransform4f(np.asarray(m, float).tolist())
 
 
+def flat_mesh(kind: str, to_world) -> dict:
+    """Mesh shape spec of a ``"rectangle"`` (object space [−1, 1]², z = 0) or ``"disk"`` (unit
+    disk, z = 0) placed by the 4×4 ``to_world``: ``{"type": MESH_TYPE, "vertex_positions":
+    (n, 3), "faces": (m, 3)}``; faces wound so that their normal is +z of the object."""
+    if kind == "rectangle":
+        P = np.array([[-1, -1], [1, -1], [1, 1], [-1, 1]], float)
+        F = np.array([[0, 1, 2], [0, 2, 3]], np.uint32)
+    elif kind == "disk":
+        n = DISK_SEGMENTS
+        a = 2 * np.pi * np.arange(n) / n
+        # polygon area (n/2) r² sin(2π/n) = π: same area as the unit disk
+        r = np.sqrt(2 * np.pi / (n * np.sin(2 * np.pi / n)))
+        P = np.vstack([[0.0, 0.0], r * np.c_[np.cos(a), np.sin(a)]])
+        i = np.arange(n)
+        F = np.c_[np.zeros(n), 1 + i, 1 + (i + 1) % n].astype(np.uint32)
+    else:
+        raise ValueError(f"no flat mesh for {kind!r}")
+    M = np.asarray(to_world, float)
+    V = np.c_[P, np.zeros(len(P)), np.ones(len(P))] @ M.T
+    return {"type": MESH_TYPE, "vertex_positions": V[:, :3].copy(), "faces": F}
+
+
 def _check_target(t: Target, i: int) -> None:
     if not (np.isfinite(t.distance_m) and t.distance_m > 0):
         raise ConfigError(f"distance must be > 0 m, got {t.distance_m}", field=f"targets[{i}].distance_m",
@@ -63,15 +99,23 @@ def _check_target(t: Target, i: int) -> None:
         raise ConfigError(f"size must be > 0 m, got {t.size_m}", field=f"targets[{i}].size_m", allowed="> 0")
 
 
-def mitsuba_surfaces(camera: Camera, targets) -> list[MitsubaSurface]:
-    """The Mitsuba shapes of all targets; object id ``k`` is ``result[k-1]``."""
+def mitsuba_surfaces(camera: Camera, targets, *, flat_shapes: str = "mesh") -> list[MitsubaSurface]:
+    """The Mitsuba shapes of all targets; object id ``k`` is ``result[k-1]``.
+
+    ``flat_shapes``: ``"mesh"`` (rectangles and disks as :func:`flat_mesh` meshes) or
+    ``"mitsuba"`` (Mitsuba's own ``rectangle``/``disk``: for comparisons, see
+    ``benchmarks/bench_sweep.py``).
+    """
+    if flat_shapes not in ("mesh", "mitsuba"):
+        raise ValueError(f"flat_shapes must be 'mesh' or 'mitsuba', got {flat_shapes!r}")
     out: list[MitsubaSurface] = []
     for ti, t in enumerate(targets):
         _check_target(t, ti)
         pieces = target_surfaces(t, camera)
         for p in pieces:
             if p.shape in ("rectangle", "disk"):
-                shape = {"type": p.shape, "to_world": _transform(p.to_world)}
+                shape = (flat_mesh(p.shape, p.matrix()) if flat_shapes == "mesh"
+                         else {"type": p.shape, "to_world": _transform(p.to_world)})
             elif p.shape == "mesh":
                 ext = Path(p.mesh_path).suffix.lower()[1:]
                 if ext not in ("obj", "ply"):

@@ -312,3 +312,51 @@ def test_noise_target_renders_more_batches_until_it_is_met():
     with pytest.raises(ConfigError, match="max_spp"):
         render(scene, noise_target=0.1, max_spp=2, **kw)
 
+
+# --------------------------------------------------------------------------- kernel reuse
+def test_flat_targets_are_meshes_of_the_same_area_and_placement():
+    """Rectangles are two triangles on their corners; disks a polygon of the disk's area."""
+    from rigsim.render.targets import DISK_SEGMENTS, MESH_TYPE, flat_mesh
+
+    M = np.eye(4)
+    M[:3, 0], M[:3, 1], M[:3, 2], M[:3, 3] = (0.2, 0, 0), (0, 0.1, 0), (0, 0, 1), (1.0, 2.0, 3.0)
+
+    def area(spec):
+        V, F = spec["vertex_positions"], spec["faces"].astype(int)
+        return 0.5 * np.linalg.norm(np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]]), axis=1).sum()
+
+    rect = flat_mesh("rectangle", M)
+    assert rect["type"] == MESH_TYPE
+    assert sorted(map(tuple, np.round(rect["vertex_positions"], 9))) == [
+        (0.8, 1.9, 3.0), (0.8, 2.1, 3.0), (1.2, 1.9, 3.0), (1.2, 2.1, 3.0)]
+    assert area(rect) == pytest.approx(0.4 * 0.2, rel=1e-12)
+    disk = flat_mesh("disk", M)  # an ellipse with semi-axes 0.2 and 0.1
+    assert len(disk["faces"]) == DISK_SEGMENTS
+    assert area(disk) == pytest.approx(np.pi * 0.2 * 0.1, rel=1e-9)
+    r = np.hypot(*((disk["vertex_positions"][1:, :2] - (1.0, 2.0)) / (0.2, 0.1)).T)
+    assert np.all(np.abs(r - 1) < 1e-4)  # outline within 0.01 % of the circle
+    # the normal of every face is the object's +z (what Mitsuba's rectangle and disk had)
+    V, F = disk["vertex_positions"], disk["faces"].astype(int)
+    n = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    assert np.all(n[:, 2] > 0) and np.allclose(n[:, :2], 0)
+
+
+def test_one_compiled_kernel_serves_every_target_distance():
+    """A sweep over distances reuses the renderer's kernels: the target's placement and the
+    lights are data, not constants compiled into the code (each compile took ~5 s)."""
+    water = preset("coastal")
+    hashes = []
+    dr.set_flag(dr.JitFlag.KernelHistory, True)
+    try:
+        for dist, size, x in ((1.0, 0.4, 0.3), (2.5, 0.9, 0.45)):  # another distance, strobes moved
+            lights = [make_light("strobe", position=(x, 0.0, 0.0), aim=(x, 0.0, 1.0)),
+                      make_light("strobe", position=(-x, 0.0, 0.0), aim=(-x, 0.0, 1.0))]
+            scene = Scene(Rig("r", make_camera("dome", focal_length_mm=40.0), tuple(lights)), water,
+                          (Target("colorchecker", dist, size_m=size),))
+            dr.kernel_history()  # clears it
+            render(scene, width=12, height=8, spp=2, seed=1, wavelengths_nm="450:650:100", layers=())
+            big = max((k for k in dr.kernel_history() if "operation_count" in k), key=lambda k: k["operation_count"])
+            hashes.append(big["hash"])
+    finally:
+        dr.set_flag(dr.JitFlag.KernelHistory, False)
+    assert hashes[0] == hashes[1]
