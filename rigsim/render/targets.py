@@ -10,7 +10,7 @@ order; 0 = nothing).
 Rectangles and disks become triangle meshes (:data:`MESH_TYPE`: vertex and face arrays, built
 into a ``mi.Mesh`` by :func:`rigsim.render.mitsuba_scene.build_mitsuba_scene`), not Mitsuba's
 ``rectangle``/``disk`` shapes: those compile their placement into every kernel as constants, so
-each target distance of a sweep compiled the renderer's kernels anew (~5 s each); a mesh keeps
+each target distance of a sweep compiled the renderer's kernels anew (2–9 s each); a mesh keeps
 its vertices in memory and one kernel serves every distance.  A rectangle is exactly two
 triangles; a disk is a regular polygon with :data:`DISK_SEGMENTS` sides whose area equals the
 disk's.  User meshes (``obj``/``ply``) are loaded by Mitsuba.
@@ -34,8 +34,8 @@ mi, dr = mitsuba()
 
 #: ``shape["type"]`` of a target piece given as vertex and face arrays.
 MESH_TYPE = "rigsim_mesh"
-#: Sides of the polygon that stands for a disk (area-preserving radius: its outline is within
-#: 0.005 % of the circle's radius on average, 0.01 % at most).
+#: Sides of the polygon that stands for a disk (area-preserving radius: its corners lie 0.005 %
+#: outside the circle, the middles of its sides 0.0025 % inside).
 DISK_SEGMENTS = 256
 
 

@@ -41,7 +41,7 @@ def _setup() -> tuple[object, object, str]:
         try:
             mi.set_variant(v)
             # Packet gathers are chosen per launch from how buffers happen to be laid out, so two
-            # renders of the same scene could trace different kernels and compile twice (~5 s
+            # renders of the same scene could trace different kernels and compile twice (2-9 s
             # each for the rigsim integrator); without them a kernel is compiled once per
             # (rig, water, target kind) and reused, also from Dr.Jit's on-disk cache.
             dr.set_flag(dr.JitFlag.PacketOps, False)
