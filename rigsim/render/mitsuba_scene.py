@@ -174,14 +174,9 @@ def build_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: 
             if has_water:
                 sd["exterior"] = medium_obj
             d[s.key] = sd
-    except ConfigError:
-        raise
-    except Exception as e:  # noqa: BLE001 - turn Mitsuba's parser errors into one line
-        raise ConfigError(f"cannot build the Mitsuba scene: {str(e).splitlines()[0][:300]}") from None
-    for i, light in enumerate(lights):
-        if np.any(np.asarray(light.axial_intensity, float) > 0):
-            d[f"light{i}"] = make_emitter(light)
-    try:
+        for i, light in enumerate(lights):
+            if np.any(np.asarray(light.axial_intensity, float) > 0):
+                d[f"light{i}"] = make_emitter(light)
         loaded = mi.load_dict(d, optimize=False)  # keep one shape per target piece (object ids)
     except ConfigError:
         raise
@@ -193,9 +188,5 @@ def build_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: 
             raise ConfigError("daylight is rendered by the rigsim integrator only", field="integrator",
                               allowed="rigsim")
         integ.set_ambient(ambient, R)
-    medium = None
     shape_ids = {s.key: i + 1 for i, s in enumerate(surfaces)}
-    for sh in loaded.shapes():
-        if sh.id() == WATER_KEY:
-            medium = sh.interior_medium()
-    return MitsubaScene(scene=loaded, medium=medium, surfaces=surfaces, shape_ids=shape_ids, mode=mode)
+    return MitsubaScene(scene=loaded, medium=medium_obj, surfaces=surfaces, shape_ids=shape_ids, mode=mode)
