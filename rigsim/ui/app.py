@@ -473,7 +473,18 @@ class RigDesigner:
             self._wake.set()
 
     # ----------------------------------------------------------------- files
-    def load_rig(self):
+    def _clicked(self, **shown):
+        """Take the values a button's page showed when it was clicked (sent with the click).
+
+        The page defers its own state updates while a request is in flight but sends a click at
+        once, so a name typed just before clicking Save could reach the server after the click:
+        the click carries the values it acts on, and the server's state is brought in line."""
+        for key, value in shown.items():
+            if value is not None:
+                self.state[key] = value
+
+    def load_rig(self, file_sel=None):
+        self._clicked(file_sel=file_sel)
         sel = self.state.file_sel
         try:
             if not sel or "/" not in str(sel):
@@ -493,7 +504,8 @@ class RigDesigner:
         self._say("")
         self._changed()
 
-    def save_rig(self):
+    def save_rig(self, save_name=None, save_folder=None, save_overwrite=None):
+        self._clicked(save_name=save_name, save_folder=save_folder, save_overwrite=save_overwrite)
         s = self.state
         try:
             folder = s.save_folder if s.save_folder in self.sandbox.folders else None
@@ -523,7 +535,8 @@ class RigDesigner:
         self.state.light_index = len(self.doc.light_names()) - 1
         self._sync_rig_vars()
 
-    def remove_light(self):
+    def remove_light(self, light_index=None):
+        self._clicked(light_index=light_index)
         if not self.state.has_lights:
             return
         try:
@@ -724,7 +737,8 @@ class RigDesigner:
         gen = self.gen
         asyncio.ensure_future(self._compare(gen))
 
-    def render_converged(self):
+    def render_converged(self, render_quality=None):
+        self._clicked(render_quality=render_quality)
         if self.state.render_running:
             return
         self._render_task = asyncio.ensure_future(self._render())

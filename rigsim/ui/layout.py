@@ -49,7 +49,7 @@ def build(app) -> None:
             v3.VSelect(v_model=("render_quality",), items=("render_quality_items",), density="compact",
                        hide_details=True, variant="outlined", style="max-width: 220px", classes="mr-2",
                        label="converged render", id="render-quality")
-            v3.VBtn("Render", id="render-btn", click=app.ctrl.render_converged, color="primary",
+            v3.VBtn("Render", id="render-btn", click=(app.ctrl.render_converged, "[render_quality]"), color="primary",
                     variant="flat", prepend_icon="mdi-camera-iris", disabled=("render_running",))
             v3.VBtn("Cancel", click=app.ctrl.cancel_render, v_if="render_running", variant="text", classes="ml-1")
             v3.VProgressLinear(v_if="render_running", model_value=("render_progress",), absolute=True,
@@ -64,7 +64,7 @@ def build(app) -> None:
                         with html.Div(classes="d-flex align-center"):
                             v3.VSelect(v_model=("file_sel",), items=("file_items",), label="open",
                                        density="compact", hide_details=True, variant="outlined", id="file-sel")
-                            v3.VBtn("Load", click=app.ctrl.load_rig, classes="ml-2", size="small", id="load-btn")
+                            v3.VBtn("Load", click=(app.ctrl.load_rig, "[file_sel]"), classes="ml-2", size="small", id="load-btn")
                         with html.Div(classes="d-flex align-center mt-2"):
                             v3.VSelect(v_model=("save_folder",), items=("folder_items",), label="folder",
                                        density="compact", hide_details=True, variant="outlined",
@@ -74,7 +74,7 @@ def build(app) -> None:
                         with html.Div(classes="d-flex align-center"):
                             v3.VCheckbox(v_model=("save_overwrite",), label="overwrite", density="compact",
                                          hide_details=True)
-                            v3.VBtn("Save", click=app.ctrl.save_rig, size="small", color="primary",
+                            v3.VBtn("Save", click=(app.ctrl.save_rig, "[save_name, save_folder, save_overwrite]"), size="small", color="primary",
                                     id="save-btn", prepend_icon="mdi-content-save")
                         v3.VAlert("{{ file_message }}", v_if="file_message", type=("file_message_type",),
                                   density="compact", variant="tonal", classes="mt-2 text-body-2", id="file-message")
@@ -103,7 +103,7 @@ def build(app) -> None:
                                     title="add a strobe")
                             v3.VBtn(icon="mdi-lightbulb-on-outline", size="small", variant="text",
                                     click=app.ctrl.add_video, title="add a video light")
-                            v3.VBtn(icon="mdi-delete", size="small", variant="text", click=app.ctrl.remove_light,
+                            v3.VBtn(icon="mdi-delete", size="small", variant="text", click=(app.ctrl.remove_light, "[light_index]"),
                                     title="remove this light", disabled=("!has_lights",))
                         with html.Div(v_if="has_lights"):
                             v3.VTextField(v_model=("l_name",), label="name", density="compact", variant="outlined",

@@ -94,6 +94,19 @@ def _wait_new_preview(page, before: dict, timeout_s: float = 40.0, want: str | N
     raise AssertionError(f"the preview did not update: {before['info']!r}")
 
 
+def _wait_text(page, selector: str, *needles: str, timeout_s: float = 60.0) -> str:
+    """Wait until the element's text contains every needle; on timeout, say what it showed."""
+    deadline = time.time() + timeout_s
+    text = None
+    while time.time() < deadline:
+        text = page.evaluate("(s) => { const e = document.querySelector(s); return e ? e.textContent : null; }",
+                             selector)
+        if text is not None and all(n in text for n in needles):
+            return text
+        time.sleep(0.3)
+    raise AssertionError(f"{selector} never showed {needles!r} within {timeout_s:g} s; it shows {text!r}")
+
+
 def _choose(page, select_id: str, option: str):
     page.locator(f"#{select_id}").click(force=True)
     page.get_by_role("option", name=option, exact=True).first.click()
@@ -164,15 +177,11 @@ def test_page_edit_compare_and_files(server):
         for bad in ("../../etc/x.toml", "/tmp/x.toml", "../escape.toml"):
             page.locator("#save-name").fill(bad)
             page.locator("#save-btn").click()
-            page.wait_for_function(
-                "(b) => { const e = document.querySelector('#file-message'); "
-                "return e && e.textContent.includes('Refused') && e.textContent.includes(b); }",
-                arg=bad, timeout=60_000)  # the server may still be busy with the comparison panel
+            _wait_text(page, "#file-message", "Refused", bad)
         assert not Path("/tmp/x.toml").exists() or Path("/tmp/x.toml").stat().st_mtime < t0
         page.locator("#save-name").fill("my-rig.toml")
         page.locator("#save-btn").click()
-        page.wait_for_function("() => (document.querySelector('#file-message')||{}).textContent?.includes('Saved')",
-                               timeout=60_000)
+        _wait_text(page, "#file-message", "Saved", "my-rig.toml")
         browser.close()
     assert not errors, errors
     saved = server["work"] / "my-rig.toml"
