@@ -37,6 +37,7 @@ import numpy as np
 
 from rigsim.errors import ConfigError, RigsimError
 from rigsim.ui.files import FileSandbox, default_rigs_dir
+from rigsim.ui.handles import LightHandles, ensure_interactor
 from rigsim.ui.predict import (PREVIEW, QUALITIES, TARGETS, WHITE_BALANCES, Conditions, Prediction,
                                contrast_curve, load_water_cached, predict, preview_engine)
 from rigsim.ui.rigdoc import SPECTRA, RigDoc, parse_number
@@ -199,6 +200,10 @@ class RigDesigner:
         pv.OFF_SCREEN = True
         self.plotter = pv.Plotter(off_screen=True, window_size=(720, 480))
         self.plotter.enable_trackball_style() if hasattr(self.plotter, "enable_trackball_style") else None
+        self.handles: LightHandles | None = None
+        if view == "server":  # drag handles need the server's interactor (see rigsim.ui.handles)
+            self.handles = LightHandles(self.plotter.renderer, ensure_interactor(self.plotter.ren_win),
+                                        on_press=self._handle_pressed, on_moved=self._handle_moved)
 
         path = Path(rig_path) if rig_path else default_rigs_dir() / DEFAULT_RIG
         try:
@@ -569,6 +574,8 @@ class RigDesigner:
         rgb = water_colour(scene.water, self.cond.depth_m)
         parts = scene_parts(scene, water_rgb=rgb, selected_light=int(self.state.light_index or 0))
         self._drawn = draw(self.plotter, parts, background=rgb, previous=self._drawn)
+        if self.handles is not None:
+            self.handles.place([light.position_m for light in scene.lights], selected=int(self.state.light_index or 0))
         self.state.water_rgb = "#%02x%02x%02x" % tuple(int(round(255 * c)) for c in rgb)
         if not self._camera_set:
             d = self.cond.distance_m
@@ -576,6 +583,46 @@ class RigDesigner:
             self.plotter.camera_position = [tuple(focal + np.array([-1.3, 0.9, -0.9]) * (0.9 + 0.8 * d)),
                                             tuple(focal), (0, 1, 0)]
             self._camera_set = True
+        self.ctrl.view_update()
+
+    def _handle_pressed(self, index: int):
+        """A light's handle was grabbed in the 3-D view: select that light."""
+        if index != int(self.state.light_index or 0):
+            with self.state:
+                self.state.light_index = index
+
+    def _handle_moved(self, index: int, world_m):
+        """A light's handle was dropped: move the light there (camera frame), or refuse and put it back."""
+        cam = self.rig.camera
+        r, u, f = cam.frame()
+        d = np.asarray(world_m, float) - np.asarray(cam.position_m, float)
+        local = [float(np.dot(d, r)), float(np.dot(d, u)), float(np.dot(d, f))]
+        with self.state:
+            try:
+                doc = self.doc.move_light(index, local)
+            except ConfigError as exc:
+                self._refuse(None, exc)
+                self.update_3d()  # the handle goes back to where the light is
+                return
+            self.state.light_index = index
+            self._accept(doc)
+            self._sync_rig_vars()
+            self.update_3d()
+
+    def view_behind(self):
+        """Look along the lens axis from behind and slightly above the housing (image left is screen left)."""
+        cam = self.rig.camera
+        r, u, f = cam.frame()
+        pupil = np.asarray(cam.position_m, float)
+        # far enough back that every light (and the housing) is in the view with a margin
+        reach = max([cam.housing_radius_m] + [float(np.hypot(np.dot(np.asarray(light.position_m) - pupil, r),
+                                                             np.dot(np.asarray(light.position_m) - pupil, u)))
+                                              for light in self.rig.lights])
+        half_view = np.radians(self.plotter.camera.view_angle / 2)
+        back = 1.35 * (reach + 0.1) / np.tan(half_view)
+        eye = pupil - f * back + u * 0.15 * back
+        self.plotter.camera_position = [tuple(eye), tuple(pupil + f * 0.3), tuple(u)]
+        self._camera_set = True
         self.ctrl.view_update()
 
     def reset_camera(self):
@@ -819,6 +866,7 @@ class RigDesigner:
         c.remove_light = self.remove_light
         c.pin_rig = self.pin_rig
         c.render_converged = self.render_converged
+        c.view_behind = self.view_behind
         c.cancel_render = self.cancel_render
         c.compare_now = self.compare_now
         c.reset_camera = self.reset_camera

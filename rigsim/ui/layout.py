@@ -37,6 +37,8 @@ def build(app) -> None:
     from trame.ui.vuetify3 import SinglePageWithDrawerLayout
     from trame.widgets import html, vtk as vtk_widgets, vuetify3 as v3
 
+    from rigsim.ui.handles import ensure_interactor
+
     server = app.server
     with SinglePageWithDrawerLayout(server, width=400) as layout:
         layout.title.set_text("rigsim · rig designer")
@@ -206,24 +208,23 @@ def build(app) -> None:
                             with v3.VCardTitle(classes="d-flex align-center text-subtitle-1"):
                                 html.Span("3-D layout")
                                 v3.VSpacer()
+                                v3.VBtn("from behind", size="x-small", variant="text", click=app.ctrl.view_behind,
+                                        id="view-behind", title="look along the lens axis from behind the housing, "
+                                                                "as the diver holds the rig")
                                 v3.VBtn("reset view", size="x-small", variant="text", click=app.ctrl.reset_camera)
                             with html.Div(classes="rs-view"):
                                 if app.view_mode == "client":
                                     view = vtk_widgets.VtkLocalView(app.plotter.ren_win)
                                 else:
                                     rw = app.plotter.ren_win
-                                    if rw.GetInteractor() is None:
-                                        from vtkmodules.vtkRenderingCore import vtkRenderWindowInteractor
-
-                                        iren = vtkRenderWindowInteractor()
-                                        iren.SetRenderWindow(rw)
-                                        iren.GetInteractorStyle().SetCurrentStyleToTrackballCamera()
+                                    ensure_interactor(rw)
                                     view = vtk_widgets.VtkRemoteView(rw, interactive_ratio=1,
                                                                      interactive_quality=70, still_quality=95)
                                 app.ctrl.view_update = view.update
                             html.Div("Beams: cones at half the beam angle along each aim (selected light brighter). "
                                      "Frame: the lens's field of view in water. Ticks every 0.5 m on the axis. "
-                                     "Drag to orbit, wheel to zoom.", classes="rs-cap pa-2")
+                                     + ("Drag a light's sphere to move the light (its aim is kept); drag elsewhere to orbit, wheel to zoom."
+                                      if app.view_mode == "server" else "Drag to orbit, wheel to zoom."), classes="rs-cap pa-2")
                     with v3.VCol(cols=12, lg=6):
                         with v3.VCard(variant="outlined"):
                             with v3.VCardTitle(classes="d-flex align-center text-subtitle-1"):

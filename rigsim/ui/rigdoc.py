@@ -299,6 +299,34 @@ class RigDoc:
             t.pop(key, None)
         return self._validated(data)
 
+    def move_light(self, index: int, position_m) -> "RigDoc":
+        """A new document with light ``index`` at ``position_m`` (camera frame ``[right, up,
+        forward]``, m), written in the arm convention (mm, 0.01°), validated.
+
+        The aim is kept as the file states it: angles stay angles (the same direction), an aim
+        point stays the point (the light turns to keep it in its beam), as a diver moving a
+        strobe on its arm would expect.
+        """
+        p = np.asarray(position_m, float).ravel()
+        where = f"lights[{index}].position_m"
+        if p.shape != (3,) or not np.all(np.isfinite(p)):
+            raise ConfigError("must be 3 finite numbers [right, up, forward] in m", field=where)
+        lights = self.data.get("lights", [])
+        if not 0 <= index < len(lights):
+            raise ConfigError(f"no light number {index}", field="lights")
+        data = copy.deepcopy(self.data)
+        t = data["lights"][index]
+        if "aim" not in t and "aim_at_m" not in t:  # angles: keep the direction the light had
+            pos = _local_position(t)
+            yaw, pitch = _yaw_pitch(_local_aim(t, pos))
+            t["yaw_deg"], t["pitch_deg"] = _clean(yaw, 3), _clean(pitch, 3)
+        for key in ("position_m", "arm_length_m", "arm_angle_deg", "arm_forward_m"):
+            t.pop(key, None)
+        t["arm_length_m"] = _clean(math.hypot(p[0], p[1]), 3)
+        t["arm_angle_deg"] = _clean(math.degrees(math.atan2(p[1], p[0])) % 360.0, 2) % 360.0
+        t["arm_forward_m"] = _clean(p[2], 3)
+        return self._validated(data)
+
     def set_aim_mode(self, index: int, mode: str) -> "RigDoc":
         """Switch light ``index`` between aiming by ``angles`` (yaw/pitch) and at a ``point``."""
         view = self.light_view(index)

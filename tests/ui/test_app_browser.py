@@ -9,6 +9,7 @@ file that the CLI's loader reads back.  A screenshot is kept under
 
 from __future__ import annotations
 
+import math
 import os
 import shutil
 import socket
@@ -107,6 +108,57 @@ def _wait_text(page, selector: str, *needles: str, timeout_s: float = 60.0) -> s
     raise AssertionError(f"{selector} never showed {needles!r} within {timeout_s:g} s; it shows {text!r}")
 
 
+def _number(text: str) -> float:
+    """The first number in a metric's text ('12.4 %' -> 12.4, '209 : 1  (46.4 dB)' -> 209)."""
+    return float(text.split()[0])
+
+
+def _view_settled(page, before: bytes, timeout_s: float = 30.0) -> None:
+    """Wait until the 3-D view shows a new picture (not ``before``) that stays the same for a moment."""
+    view = page.locator(".rs-view")
+    deadline = time.time() + timeout_s
+    last = before
+    while time.time() < deadline:
+        time.sleep(0.5)
+        now = view.screenshot()
+        if now == last and now != before:
+            return
+        last = now
+    raise AssertionError("the 3-D view did not settle on a new picture")
+
+
+def _handle_xy(page, timeout_s: float = 20.0) -> tuple[float, float]:
+    """Page coordinates of the selected light's sphere in the 3-D view: the centre of its
+    orange pixels (the handle and the head are drawn in HANDLE_SELECTED_COLOUR)."""
+    import cv2
+    import numpy as np
+
+    from rigsim.ui.handles import HANDLE_SELECTED_COLOUR
+
+    hue = cv2.cvtColor(np.uint8([[np.array(HANDLE_SELECTED_COLOUR)[::-1] * 255]]), cv2.COLOR_BGR2HSV)[0, 0, 0]
+    view = page.locator(".rs-view")
+    deadline = time.time() + timeout_s
+    while time.time() < deadline:
+        box = view.bounding_box()
+        png = view.screenshot()
+        img = cv2.imdecode(np.frombuffer(png, np.uint8), cv2.IMREAD_COLOR)
+        hsv = cv2.cvtColor(img, cv2.COLOR_BGR2HSV).astype(int)
+        # the saturated orange of the handle and head, shaded (the chart seen through water is pale)
+        mask = ((abs(hsv[..., 0] - int(hue)) <= 6) & (hsv[..., 1] > 170) & (hsv[..., 2] > 90)).astype(np.uint8)
+        n, labels, stats, centres = cv2.connectedComponentsWithStats(mask)
+        if n > 1:
+            big = 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))
+            if stats[big, cv2.CC_STAT_AREA] >= 30:
+                cx, cy = centres[big]
+                sx, sy = box["width"] / img.shape[1], box["height"] / img.shape[0]
+                return box["x"] + float(cx) * sx, box["y"] + float(cy) * sy
+        time.sleep(0.5)
+    shot = ROOT / "artifacts" / "ui" / "view_no_handle.png"
+    shot.parent.mkdir(parents=True, exist_ok=True)
+    shot.write_bytes(png)
+    raise AssertionError(f"the selected light's sphere is not visible in the 3-D view (what it showed: {shot})")
+
+
 def _choose(page, select_id: str, option: str):
     page.locator(f"#{select_id}").click(force=True)
     page.get_by_role("option", name=option, exact=True).first.click()
@@ -126,6 +178,28 @@ def test_page_edit_compare_and_files(server):
         page.wait_for_selector("#preview-img", timeout=60_000)
         first = _wait_new_preview(page, {"info": ""})
         assert first["metrics"]["contrast_radiance"] not in (None, "–")
+
+        # drag the left strobe outward in the 3-D view (seen from behind the housing: image
+        # left is screen left): its arm gets longer, backscatter drops, contrast rises
+        before = page.locator(".rs-view").screenshot()
+        page.locator("#view-behind").click()
+        _view_settled(page, before)
+        arm0 = float(page.locator("#l_arm_length_m").input_value())
+        x, y = _handle_xy(page)
+        page.mouse.move(x, y)
+        page.mouse.down()
+        for k in range(1, 11):
+            page.mouse.move(x - 9 * k, y, steps=2)
+            time.sleep(0.05)
+        page.mouse.up()
+        deadline = time.time() + 30
+        while (arm1 := float(page.locator("#l_arm_length_m").input_value())) == arm0 and time.time() < deadline:
+            time.sleep(0.3)
+        assert arm1 > arm0 + 0.05, f"the drag did not lengthen the arm: {arm0} -> {arm1} m"
+        dragged = _wait_new_preview(page, first)
+        assert _number(dragged["metrics"]["backscatter_share"]) < _number(first["metrics"]["backscatter_share"])
+        assert _number(dragged["metrics"]["contrast_radiance"]) > _number(first["metrics"]["contrast_radiance"])
+        first = dragged
 
         # water preset: coastal → clear
         _choose(page, "water-sel", "clear")
@@ -170,7 +244,9 @@ def test_page_edit_compare_and_files(server):
         print(f"\nscreenshot: {shot}")
         print(f"metrics coastal: {first['metrics']}\nmetrics clear: {clear['metrics']}\n"
               f"metrics turned: {turned['metrics']}\nmetrics arm 0.6 m: {wider['metrics']}\n"
-              f"converged: {conv['info']} {conv['metrics']}")
+              f"converged: {conv['info']} {conv['metrics']}\narm dragged {arm0} -> {arm1} m")
+
+        arm_angle = float(page.locator("#l_arm_angle_deg").input_value())
 
         # files: refused outside the sandbox, written inside
         page.get_by_text("Rig file", exact=True).click()
@@ -190,7 +266,7 @@ def test_page_edit_compare_and_files(server):
 
     rig = load_rig(saved)
     left = rig.lights[0]
-    assert abs(left.position_m[0] - 0.6 * abs(__import__("math").cos(__import__("math").radians(165)))) < 0.01
+    assert abs(left.position_m[0] - 0.6 * abs(math.cos(math.radians(arm_angle)))) < 0.01
     assert left.aim[0] > 0.5  # turned towards the image's left = world +x
     assert server["proc"].poll() is None, "the server died"
     print(f"browser test took {time.time() - t0:.1f} s")

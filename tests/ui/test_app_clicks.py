@@ -53,3 +53,67 @@ def test_load_and_remove_use_the_values_sent_with_the_click(app, tmp_path):
     app.load_rig("work/two.toml")
     assert app.state.file_message == "Loaded work/two.toml", app.state.file_message
     assert app.doc.light_names() == names
+
+
+def _display_xy(app, world):
+    from vtkmodules.vtkRenderingCore import vtkCoordinate
+
+    c = vtkCoordinate()
+    c.SetCoordinateSystemToWorld()
+    c.SetValue(*[float(x) for x in world])
+    return c.GetComputedDisplayValue(app.plotter.renderer)
+
+
+def _drag(app, start, end, steps=8):
+    """Press at display point ``start``, move to ``end`` and release (VTK display pixels)."""
+    iren = app.plotter.ren_win.GetInteractor()
+
+    def at(event, x, y):
+        iren.SetEventInformation(int(round(x)), int(round(y)), 0, 0, "\0", 0, None)
+        iren.InvokeEvent(event)
+
+    at("MouseMoveEvent", *start)
+    at("LeftButtonPressEvent", *start)
+    for k in range(1, steps + 1):
+        at("MouseMoveEvent", start[0] + (end[0] - start[0]) * k / steps, start[1] + (end[1] - start[1]) * k / steps)
+    at("LeftButtonReleaseEvent", *end)
+
+
+def test_dragging_a_light_handle_moves_the_light_and_the_housing_refuses_it(app):
+    """From behind the housing (image left = screen left), drag the left strobe's sphere
+    further left: the light's arm gets longer, its aim point is kept; drag it onto the
+    port: refused with a message, and the handle goes back to the light."""
+    import numpy as np
+
+    app.plotter.ren_win.GetInteractor().Initialize()
+    app.update_3d()
+    app.view_behind()
+    app.plotter.render()
+    view0 = app.doc.light_view(0)
+    assert view0["arm_angle_deg"] > 90  # light 0 is the left strobe
+    light0 = np.asarray(app.rig.lights[0].position_m)
+    x, y = _display_xy(app, light0)
+    assert len(app.handles) == len(app.rig.lights)
+
+    _drag(app, (x, y), (x - 60, y))
+    view1 = app.doc.light_view(0)
+    assert view1["arm_length_m"] > view0["arm_length_m"] + 0.05, (view0, view1)
+    assert abs(view1["arm_forward_m"] - view0["arm_forward_m"]) < 0.1
+    assert view1["aim_mode"] == view0["aim_mode"]
+    if view0["aim_mode"] == "point":
+        assert view1["aim_at_m"] == view0["aim_at_m"]
+    else:
+        assert (view1["yaw_deg"], view1["pitch_deg"]) == (view0["yaw_deg"], view0["pitch_deg"])
+    assert app.state.l_arm_length_m == view1["arm_length_m"]  # the sliders follow
+    assert app.state.preview_busy  # a new preview is on its way
+    np.testing.assert_allclose(app.handles.world_positions()[0], app.rig.lights[0].position_m, atol=1e-3)
+
+    # onto the port: inside the housing, refused; the light and its handle stay where they were
+    before = app.doc.light_view(0)
+    app.plotter.render()
+    x, y = _display_xy(app, app.rig.lights[0].position_m)
+    px, py = _display_xy(app, app.rig.camera.position_m)
+    _drag(app, (x, y), (px, py))
+    assert app.state.message.startswith("Refused") and "housing" in app.state.message, app.state.message
+    assert app.doc.light_view(0) == before
+    np.testing.assert_allclose(app.handles.world_positions()[0], app.rig.lights[0].position_m, atol=1e-6)

@@ -115,3 +115,44 @@ def test_doctests(mod):
 
     res = doctest.testmod(importlib.import_module(mod), optionflags=doctest.ELLIPSIS)
     assert res.failed == 0 and res.attempted > 0
+
+
+@pytest.mark.parametrize("path", [p for p in RIGS if RigDoc.load(p).light_names()], ids=lambda p: p.stem)
+def test_move_light_puts_it_there_and_keeps_the_aim(path):
+    """A drag in the 3-D view: the light ends where it was dropped (to the mm), the rig
+    file's way of aiming is kept (angles: the same world direction; an aim point: the same
+    point, so the light turns to it), and nothing else changes."""
+    doc = RigDoc.load(path)
+    rig0 = doc.rig()
+    cam = rig0.camera
+    r, u, f = cam.frame()
+    for i, light in enumerate(rig0.lights):
+        local = np.array([np.dot(light.position_m - np.asarray(cam.position_m), e) for e in (r, u, f)])
+        new_local = local * 1.4 + np.array([0.0, 0.05, 0.1])
+        moved = doc.move_light(i, new_local)
+        rig1 = moved.rig()
+        world = np.asarray(cam.position_m) + new_local[0] * r + new_local[1] * u + new_local[2] * f
+        assert np.allclose(rig1.lights[i].position_m, world, atol=1.5e-3)
+        t0, t1 = doc.data["lights"][i], moved.data["lights"][i]
+        if "aim_at_m" in t0:
+            assert t1["aim_at_m"] == t0["aim_at_m"]
+            aim_point = np.asarray(cam.position_m) + sum(c * e for c, e in zip(t0["aim_at_m"], (r, u, f)))
+            want = (aim_point - rig1.lights[i].position_m) / np.linalg.norm(aim_point - rig1.lights[i].position_m)
+            assert np.allclose(rig1.lights[i].aim, want, atol=1e-9)
+        else:
+            assert np.allclose(rig1.lights[i].aim, light.aim, atol=1e-4)  # angles rounded to 0.001°
+        assert {k: v for k, v in t1.items() if not k.startswith(("arm_", "position_m", "yaw", "pitch", "aim"))} == \
+            {k: v for k, v in t0.items() if not k.startswith(("arm_", "position_m", "yaw", "pitch", "aim"))}
+        for j, other in enumerate(rig1.lights):
+            if j != i:
+                assert np.allclose(other.position_m, rig0.lights[j].position_m)
+
+
+def test_move_light_refuses_the_housing_and_nonsense():
+    doc = RigDoc.load(ROOT / "rigs" / "twin-strobes-45-wide.toml")
+    with pytest.raises(ConfigError, match="inside the housing"):
+        doc.move_light(0, [0.05, 0.0, 0.0])
+    with pytest.raises(ConfigError, match=r"lights\[0\]\.position_m.*3 finite numbers"):
+        doc.move_light(0, [float("nan"), 0.0, 0.0])
+    with pytest.raises(ConfigError, match="no light number 7"):
+        doc.move_light(7, [0.5, 0.0, 0.0])
