@@ -56,6 +56,8 @@ TARGET_SIZES = {"real size": None, "fills 25% of frame": 0.25, "fills 50% of fra
                 "fills 75% of frame": 0.75}
 MAX_COMPARE = 4
 _DEBOUNCE_S = 0.15
+#: Least time between redraws of the 3-D view while a light is dragged (s; a redraw takes ~0.13 s).
+_DRAG_REDRAW_S = 0.25
 
 #: UI variable of each editable light field (flat keys for the selected light).
 LIGHT_VARS = {"l_name": "name", "l_arm_length_m": "arm_length_m", "l_arm_angle_deg": "arm_angle_deg",
@@ -203,7 +205,9 @@ class RigDesigner:
         self.handles: LightHandles | None = None
         if view == "server":  # drag handles need the server's interactor (see rigsim.ui.handles)
             self.handles = LightHandles(self.plotter.renderer, ensure_interactor(self.plotter.ren_win),
-                                        on_press=self._handle_pressed, on_moved=self._handle_moved)
+                                        on_press=self._handle_pressed, on_moved=self._handle_moved,
+                                        on_drag=self._handle_dragged)
+        self._drag_drawn = 0.0
 
         path = Path(rig_path) if rig_path else default_rigs_dir() / DEFAULT_RIG
         try:
@@ -562,12 +566,13 @@ class RigDesigner:
         self._changed()
 
     # ----------------------------------------------------------------- 3-D
-    def update_3d(self):
+    def update_3d(self, rig=None):
+        """Redraw the 3-D view for the current rig (or ``rig``: a light being dragged)."""
         from rigsim.ui.predict import _scene
         from rigsim.ui.scene3d import draw, scene_parts, water_colour
 
         try:
-            scene = _scene(self.rig, self.cond)
+            scene = _scene(rig or self.rig, self.cond)
         except ConfigError as exc:
             self._refuse(None, exc)
             return
@@ -591,15 +596,29 @@ class RigDesigner:
             with self.state:
                 self.state.light_index = index
 
+    def _local(self, world_m) -> list[float]:
+        """A world point in the camera frame [right, up, forward] (m)."""
+        cam = self.rig.camera
+        d = np.asarray(world_m, float) - np.asarray(cam.position_m, float)
+        return [float(np.dot(d, e)) for e in cam.frame()]
+
+    def _handle_dragged(self, index: int, world_m):
+        """While a handle is dragged, the light's head, arm and beam follow it (at most ~4 per s)."""
+        now = time.perf_counter()
+        if now - self._drag_drawn < _DRAG_REDRAW_S:
+            return
+        self._drag_drawn = now
+        try:
+            rig = self.doc.move_light(index, self._local(world_m)).rig()
+        except ConfigError:
+            return  # e.g. inside the housing: said when the handle is dropped
+        self.update_3d(rig)
+
     def _handle_moved(self, index: int, world_m):
         """A light's handle was dropped: move the light there (camera frame), or refuse and put it back."""
-        cam = self.rig.camera
-        r, u, f = cam.frame()
-        d = np.asarray(world_m, float) - np.asarray(cam.position_m, float)
-        local = [float(np.dot(d, r)), float(np.dot(d, u)), float(np.dot(d, f))]
         with self.state:
             try:
-                doc = self.doc.move_light(index, local)
+                doc = self.doc.move_light(index, self._local(world_m))
             except ConfigError as exc:
                 self._refuse(None, exc)
                 self.update_3d()  # the handle goes back to where the light is

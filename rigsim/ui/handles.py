@@ -54,17 +54,21 @@ class LightHandles:
         ``on_press(index)``: a handle was grabbed.
     on_moved
         ``on_moved(index, world_position_m)``: a handle was released at a new position.
+    on_drag
+        ``on_drag(index, world_position_m)``: a handle is being dragged (every mouse move).
     """
 
     def __init__(self, renderer, interactor, *, on_press: Callable[[int], None],
-                 on_moved: Callable[[int, np.ndarray], None]):
+                 on_moved: Callable[[int, np.ndarray], None],
+                 on_drag: Callable[[int, np.ndarray], None] | None = None):
         self.renderer = renderer
         self.interactor = interactor
         self.on_press = on_press
         self.on_moved = on_moved
+        self.on_drag = on_drag
         self._widgets: list = []  # (widget, representation)
-        self._placed: list[np.ndarray] = []
         self.dragging: int | None = None  # index of the handle held by the mouse
+        self._pressed_at: np.ndarray | None = None
 
     def __len__(self) -> int:
         return len(self._widgets)
@@ -82,7 +86,6 @@ class LightHandles:
             if i != self.dragging:  # a redraw while the mouse holds a handle leaves it there
                 rep.SetWorldPosition([float(x) for x in p])
             rep.GetProperty().SetColor(*(HANDLE_SELECTED_COLOUR if i == selected else HANDLE_COLOUR))
-        self._placed = positions
 
     def world_positions(self) -> list[np.ndarray]:
         """Where the handles are now (m)."""
@@ -101,16 +104,21 @@ class LightHandles:
         w.EnabledOn()
         w.AddObserver("StartInteractionEvent", lambda *_: self._pressed(index))
         w.AddObserver("EndInteractionEvent", lambda *_: self._released(index))
+        w.AddObserver("InteractionEvent", lambda *_: self._dragged(index))
         return w, rep
 
     def _pressed(self, index: int) -> None:
         self.dragging = index
+        self._pressed_at = np.asarray(self._widgets[index][1].GetWorldPosition(), float)
         self.on_press(index)
+
+    def _dragged(self, index: int) -> None:
+        if self.on_drag is not None:
+            self.on_drag(index, np.asarray(self._widgets[index][1].GetWorldPosition(), float))
 
     def _released(self, index: int) -> None:
         self.dragging = None
         now = np.asarray(self._widgets[index][1].GetWorldPosition(), float)
-        before = self._placed[index] if index < len(self._placed) else None
-        if before is not None and np.allclose(now, before, atol=1e-6):
+        if self._pressed_at is not None and np.allclose(now, self._pressed_at, atol=1e-6):
             return  # a click without a move
         self.on_moved(index, now)

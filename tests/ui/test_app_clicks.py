@@ -9,6 +9,8 @@ stale value, the click carries the new one.
 
 from __future__ import annotations
 
+import time
+
 import pytest
 
 from rigsim.config.rig import load_rig
@@ -64,19 +66,22 @@ def _display_xy(app, world):
     return c.GetComputedDisplayValue(app.plotter.renderer)
 
 
-def _drag(app, start, end, steps=8):
-    """Press at display point ``start``, move to ``end`` and release (VTK display pixels)."""
+def _mouse(app, event, xy):
+    """A VTK mouse event at display point ``xy`` (pixels from the bottom left)."""
     iren = app.plotter.ren_win.GetInteractor()
+    iren.SetEventInformation(int(round(xy[0])), int(round(xy[1])), 0, 0, "\0", 0, None)
+    iren.InvokeEvent(event)
 
-    def at(event, x, y):
-        iren.SetEventInformation(int(round(x)), int(round(y)), 0, 0, "\0", 0, None)
-        iren.InvokeEvent(event)
 
-    at("MouseMoveEvent", *start)
-    at("LeftButtonPressEvent", *start)
+def _drag(app, start, end, steps=8, release=True):
+    """Press at display point ``start``, move to ``end`` and (unless told not to) release."""
+    _mouse(app, "MouseMoveEvent", start)
+    _mouse(app, "LeftButtonPressEvent", start)
     for k in range(1, steps + 1):
-        at("MouseMoveEvent", start[0] + (end[0] - start[0]) * k / steps, start[1] + (end[1] - start[1]) * k / steps)
-    at("LeftButtonReleaseEvent", *end)
+        _mouse(app, "MouseMoveEvent", (start[0] + (end[0] - start[0]) * k / steps,
+                                       start[1] + (end[1] - start[1]) * k / steps))
+    if release:
+        _mouse(app, "LeftButtonReleaseEvent", end)
 
 
 def test_dragging_a_light_handle_moves_the_light_and_the_housing_refuses_it(app):
@@ -95,7 +100,14 @@ def test_dragging_a_light_handle_moves_the_light_and_the_housing_refuses_it(app)
     x, y = _display_xy(app, light0)
     assert len(app.handles) == len(app.rig.lights)
 
-    _drag(app, (x, y), (x - 60, y))
+    head0 = np.array(app.plotter.actors["head0"].GetCenter())
+    _drag(app, (x, y), (x - 60, y), release=False)
+    assert app.doc.light_view(0) == view0  # nothing changes until the handle is dropped...
+    head = np.array(app.plotter.actors["head0"].GetCenter())
+    assert np.linalg.norm(head - head0) > 0.02, (head0, head)  # ...but the head follows the handle
+    time.sleep(0.3)
+    _mouse(app, "MouseMoveEvent", (x - 60, y))  # held still: redrawn at the final place...
+    _mouse(app, "LeftButtonReleaseEvent", (x - 60, y))  # ...and dropped there
     view1 = app.doc.light_view(0)
     assert view1["arm_length_m"] > view0["arm_length_m"] + 0.05, (view0, view1)
     assert abs(view1["arm_forward_m"] - view0["arm_forward_m"]) < 0.1
