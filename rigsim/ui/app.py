@@ -624,9 +624,8 @@ class RigDesigner:
                 self.update_3d()  # the handle goes back to where the light is
                 return
             self.state.light_index = index
-            self._accept(doc)
+            self._accept(doc)  # the worker redraws the 3-D view and the preview
             self._sync_rig_vars()
-            self.update_3d()
 
     def view_behind(self):
         """Look along the lens axis from behind and slightly above the housing (image left is screen left)."""

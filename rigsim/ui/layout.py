@@ -37,8 +37,6 @@ def build(app) -> None:
     from trame.ui.vuetify3 import SinglePageWithDrawerLayout
     from trame.widgets import html, vtk as vtk_widgets, vuetify3 as v3
 
-    from rigsim.ui.handles import ensure_interactor
-
     server = app.server
     with SinglePageWithDrawerLayout(server, width=400) as layout:
         layout.title.set_text("rigsim · rig designer")
@@ -216,9 +214,8 @@ def build(app) -> None:
                                 if app.view_mode == "client":
                                     view = vtk_widgets.VtkLocalView(app.plotter.ren_win)
                                 else:
-                                    rw = app.plotter.ren_win
-                                    ensure_interactor(rw)
-                                    view = vtk_widgets.VtkRemoteView(rw, interactive_ratio=1,
+                                    # the interactor (made by the app, with the light handles) gets the mouse
+                                    view = vtk_widgets.VtkRemoteView(app.plotter.ren_win, interactive_ratio=1,
                                                                      interactive_quality=70, still_quality=95)
                                 app.ctrl.view_update = view.update
                             html.Div("Beams: cones at half the beam angle along each aim (selected light brighter). "
