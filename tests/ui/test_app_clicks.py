@@ -50,6 +50,11 @@ def test_load_and_remove_use_the_values_sent_with_the_click(app, tmp_path):
     app.state.light_index = 0
     app.remove_light(n - 1)  # the page showed the last light selected
     assert app.doc.light_names() == names[:-1]
+    app.update_3d()
+    assert len(app.handles) == n - 1  # one drag handle per light
+    app.add_light("video")
+    app.update_3d()
+    assert len(app.handles) == n
 
     app.state.file_sel = None  # stale: nothing chosen yet
     app.load_rig("work/two.toml")
