@@ -37,7 +37,7 @@ import numpy as np
 
 from rigsim.errors import ConfigError, RigsimError
 from rigsim.ui.files import FileSandbox, default_rigs_dir
-from rigsim.ui.handles import LightHandles, ensure_interactor
+from rigsim.ui.handles import LightHandles, ensure_interactor, on_plane
 from rigsim.ui.predict import (PREVIEW, QUALITIES, TARGETS, WHITE_BALANCES, Conditions, Prediction,
                                contrast_curve, load_water_cached, predict, preview_engine)
 from rigsim.ui.rigdoc import SPECTRA, RigDoc, parse_number
@@ -596,29 +596,37 @@ class RigDesigner:
             with self.state:
                 self.state.light_index = index
 
-    def _local(self, world_m) -> list[float]:
-        """A world point in the camera frame [right, up, forward] (m)."""
+    def _local(self, world_m, index: int, free: bool) -> list[float]:
+        """Where a handle dropped at ``world_m`` puts light ``index``, in the camera frame
+        [right, up, forward] (m): on the line of sight through the handle, at the light's
+        forward offset (unless ``free``, or the line is nearly parallel to that plane)."""
         cam = self.rig.camera
-        d = np.asarray(world_m, float) - np.asarray(cam.position_m, float)
-        return [float(np.dot(d, e)) for e in cam.frame()]
+        pupil = np.asarray(cam.position_m, float)
+        r, u, f = cam.frame()
+        p = np.asarray(world_m, float)
+        if not free:
+            forward = self.doc.light_view(index)["arm_forward_m"]
+            q = on_plane(self.plotter.camera.position, p, pupil + f * forward, f)
+            p = q if q is not None else p
+        return [float(np.dot(p - pupil, e)) for e in (r, u, f)]
 
-    def _handle_dragged(self, index: int, world_m):
+    def _handle_dragged(self, index: int, world_m, free: bool = False):
         """While a handle is dragged, the light's head, arm and beam follow it (at most ~4 per s)."""
         now = time.perf_counter()
         if now - self._drag_drawn < _DRAG_REDRAW_S:
             return
         self._drag_drawn = now
         try:
-            rig = self.doc.move_light(index, self._local(world_m)).rig()
+            rig = self.doc.move_light(index, self._local(world_m, index, free)).rig()
         except ConfigError:
             return  # e.g. inside the housing: said when the handle is dropped
         self.update_3d(rig)
 
-    def _handle_moved(self, index: int, world_m):
+    def _handle_moved(self, index: int, world_m, free: bool = False):
         """A light's handle was dropped: move the light there (camera frame), or refuse and put it back."""
         with self.state:
             try:
-                doc = self.doc.move_light(index, self._local(world_m))
+                doc = self.doc.move_light(index, self._local(world_m, index, free))
             except ConfigError as exc:
                 self._refuse(None, exc)
                 self.update_3d()  # the handle goes back to where the light is

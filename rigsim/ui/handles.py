@@ -8,6 +8,11 @@ frame (:meth:`rigsim.ui.rigdoc.RigDoc.move_light`), validates it like any other 
 (a light inside the housing is refused and its handle goes back) and updates the
 preview.  Pressing on a handle selects that light.
 
+A strobe arm swings in the plane across the lens axis, so by default the app keeps the
+light's forward offset: the point used is where the line of sight through the handle
+meets that plane (:func:`on_plane`), which is the same spot on the screen from any view.
+With Shift held the light moves freely in the screen's plane.
+
 The widgets live on the server's render-window interactor, so they work with the
 server-rendered view (``view="server"``, the default): the browser forwards mouse
 events to that interactor.  The client-rendered view (``view="client"``, vtk.js in the
@@ -20,7 +25,8 @@ from typing import Callable
 
 import numpy as np
 
-__all__ = ["LightHandles", "ensure_interactor", "HANDLE_COLOUR", "HANDLE_SELECTED_COLOUR", "HANDLE_SIZE_PX"]
+__all__ = ["LightHandles", "ensure_interactor", "on_plane", "HANDLE_COLOUR", "HANDLE_SELECTED_COLOUR",
+           "HANDLE_SIZE_PX"]
 
 #: Display colours (sRGB 0-1) of a handle, and of the selected light's handle.
 HANDLE_COLOUR = (0.85, 0.85, 0.85)
@@ -41,6 +47,19 @@ def ensure_interactor(render_window):
     return iren
 
 
+def on_plane(eye_m, point_m, plane_point_m, normal, *, min_cos: float = 0.05):
+    """Where the line of sight from ``eye_m`` through ``point_m`` meets a plane (m), or None when
+    the line runs within ``asin(min_cos)`` of parallel to it or meets it behind the eye."""
+    eye, point = np.asarray(eye_m, float), np.asarray(point_m, float)
+    n = np.asarray(normal, float) / np.linalg.norm(normal)
+    d = point - eye
+    length = np.linalg.norm(d)
+    if length == 0 or abs(np.dot(d, n)) < min_cos * length:
+        return None
+    s = np.dot(np.asarray(plane_point_m, float) - eye, n) / np.dot(d, n)
+    return eye + s * d if s > 0 else None
+
+
 class LightHandles:
     """Sphere handles on the lights, reporting drags.
 
@@ -53,14 +72,15 @@ class LightHandles:
     on_press
         ``on_press(index)``: a handle was grabbed.
     on_moved
-        ``on_moved(index, world_position_m)``: a handle was released at a new position.
+        ``on_moved(index, world_position_m, free)``: a handle was released at a new position
+        (``free``: Shift was held).
     on_drag
-        ``on_drag(index, world_position_m)``: a handle is being dragged (every mouse move).
+        ``on_drag(index, world_position_m, free)``: a handle is being dragged (every mouse move).
     """
 
     def __init__(self, renderer, interactor, *, on_press: Callable[[int], None],
-                 on_moved: Callable[[int, np.ndarray], None],
-                 on_drag: Callable[[int, np.ndarray], None] | None = None):
+                 on_moved: Callable[[int, np.ndarray, bool], None],
+                 on_drag: Callable[[int, np.ndarray, bool], None] | None = None):
         self.renderer = renderer
         self.interactor = interactor
         self.on_press = on_press
@@ -114,11 +134,14 @@ class LightHandles:
 
     def _dragged(self, index: int) -> None:
         if self.on_drag is not None:
-            self.on_drag(index, np.asarray(self._widgets[index][1].GetWorldPosition(), float))
+            self.on_drag(index, np.asarray(self._widgets[index][1].GetWorldPosition(), float), self._shift())
 
     def _released(self, index: int) -> None:
         self.dragging = None
         now = np.asarray(self._widgets[index][1].GetWorldPosition(), float)
         if self._pressed_at is not None and np.allclose(now, self._pressed_at, atol=1e-6):
             return  # a click without a move
-        self.on_moved(index, now)
+        self.on_moved(index, now, self._shift())
+
+    def _shift(self) -> bool:
+        return bool(self.interactor.GetShiftKey())

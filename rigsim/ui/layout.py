@@ -220,7 +220,8 @@ def build(app) -> None:
                                 app.ctrl.view_update = view.update
                             html.Div("Beams: cones at half the beam angle along each aim (selected light brighter). "
                                      "Frame: the lens's field of view in water. Ticks every 0.5 m on the axis. "
-                                     + ("Drag a light's sphere to move the light (its aim is kept); drag elsewhere to orbit, wheel to zoom."
+                                     + ("Drag a light's sphere to swing it on its arm (forward offset and aim kept; Shift: move freely); "
+                                        "drag elsewhere to orbit, wheel to zoom."
                                       if app.view_mode == "server" else "Drag to orbit, wheel to zoom."), classes="rs-cap pa-2")
                     with v3.VCol(cols=12, lg=6):
                         with v3.VCard(variant="outlined"):

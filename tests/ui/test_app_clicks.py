@@ -71,22 +71,22 @@ def _display_xy(app, world):
     return c.GetComputedDisplayValue(app.plotter.renderer)
 
 
-def _mouse(app, event, xy):
+def _mouse(app, event, xy, shift=False):
     """A VTK mouse event at display point ``xy`` (pixels from the bottom left)."""
     iren = app.plotter.ren_win.GetInteractor()
-    iren.SetEventInformation(int(round(xy[0])), int(round(xy[1])), 0, 0, "\0", 0, None)
+    iren.SetEventInformation(int(round(xy[0])), int(round(xy[1])), 0, int(shift), "\0", 0, None)
     iren.InvokeEvent(event)
 
 
-def _drag(app, start, end, steps=8, release=True):
+def _drag(app, start, end, steps=8, release=True, shift=False):
     """Press at display point ``start``, move to ``end`` and (unless told not to) release."""
-    _mouse(app, "MouseMoveEvent", start)
-    _mouse(app, "LeftButtonPressEvent", start)
+    _mouse(app, "MouseMoveEvent", start, shift)
+    _mouse(app, "LeftButtonPressEvent", start, shift)
     for k in range(1, steps + 1):
         _mouse(app, "MouseMoveEvent", (start[0] + (end[0] - start[0]) * k / steps,
-                                       start[1] + (end[1] - start[1]) * k / steps))
+                                       start[1] + (end[1] - start[1]) * k / steps), shift)
     if release:
-        _mouse(app, "LeftButtonReleaseEvent", end)
+        _mouse(app, "LeftButtonReleaseEvent", end, shift)
 
 
 def test_dragging_a_light_handle_moves_the_light_and_the_housing_refuses_it(app):
@@ -134,3 +134,43 @@ def test_dragging_a_light_handle_moves_the_light_and_the_housing_refuses_it(app)
     assert app.state.message.startswith("Refused") and "housing" in app.state.message, app.state.message
     assert app.doc.light_view(0) == before
     np.testing.assert_allclose(app.handles.world_positions()[0], app.rig.lights[0].position_m, atol=1e-6)
+
+
+def test_from_any_view_a_drag_swings_the_arm_and_shift_moves_freely(app):
+    """From the default oblique view the screen's plane is not the arm's: a plain drag keeps
+    the forward offset and puts the light where the mouse was let go (on the screen); with
+    Shift the light moves in the screen's plane, so its forward offset changes."""
+    import numpy as np
+
+    app.plotter.ren_win.GetInteractor().Initialize()
+    app.update_3d()
+    app.plotter.render()
+    view0 = app.doc.light_view(1)
+    x, y = _display_xy(app, app.rig.lights[1].position_m)
+    _drag(app, (x, y), (x + 50, y + 30))
+    view1 = app.doc.light_view(1)
+    assert view1["arm_forward_m"] == view0["arm_forward_m"]
+    assert abs(view1["arm_length_m"] - view0["arm_length_m"]) > 0.03 or \
+        abs(view1["arm_angle_deg"] - view0["arm_angle_deg"]) > 3, (view0, view1)
+    app.plotter.render()
+    sx, sy = _display_xy(app, app.rig.lights[1].position_m)
+    assert abs(sx - (x + 50)) < 2.5 and abs(sy - (y + 30)) < 2.5, (sx, sy, x + 50, y + 30)
+
+    app.update_3d()
+    app.plotter.render()
+    x, y = _display_xy(app, app.rig.lights[1].position_m)
+    _drag(app, (x, y), (x + 40, y - 20), shift=True)
+    view2 = app.doc.light_view(1)
+    assert abs(view2["arm_forward_m"] - view1["arm_forward_m"]) > 0.02, (view1, view2)
+
+
+def test_on_plane():
+    import numpy as np
+
+    from rigsim.ui.handles import on_plane
+
+    # from (0, 0, -2) along (1, 0, 1): the plane z = 0.5 is 2.5 m ahead, at x = 2.5
+    hit = on_plane([0, 0, -2], [1, 0, -1], [0, 0, 0.5], [0, 0, 1])
+    np.testing.assert_allclose(hit, [2.5, 0, 0.5])
+    assert on_plane([0, 0, -2], [1, 0, -2], [0, 0, 0.5], [0, 0, 1]) is None  # parallel
+    assert on_plane([0, 0, 1], [0, 0, 2], [0, 0, 0.5], [0, 0, 1]) is None  # behind the eye
