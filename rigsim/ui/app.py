@@ -610,7 +610,7 @@ class RigDesigner:
             p = q if q is not None else p
         return [float(np.dot(p - pupil, e)) for e in (r, u, f)]
 
-    def _handle_dragged(self, index: int, world_m, free: bool = False):
+    def _handle_dragged(self, index: int, world_m, free: bool):
         """While a handle is dragged, the light's head, arm and beam follow it (at most ~4 per s)."""
         now = time.perf_counter()
         if now - self._drag_drawn < _DRAG_REDRAW_S:
@@ -622,7 +622,7 @@ class RigDesigner:
             return  # e.g. inside the housing: said when the handle is dropped
         self.update_3d(rig)
 
-    def _handle_moved(self, index: int, world_m, free: bool = False):
+    def _handle_moved(self, index: int, world_m, free: bool):
         """A light's handle was dropped: move the light there (camera frame), or refuse and put it back."""
         with self.state:
             try:

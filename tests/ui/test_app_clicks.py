@@ -1,16 +1,18 @@
-"""The rig designer's buttons act on the values the page showed when they were clicked.
+"""The rig designer's buttons and drag handles, on an app built in this process (no server, no browser).
 
-The trame page defers its state updates while a request is in flight but sends a click at
-once, so the server can see a click before the name typed just before it.  The buttons that
-read a field (Save, Load, Render, remove light) therefore carry that field with the click.
-Tested on an app built in this process (no server, no browser): the server's state holds a
-stale value, the click carries the new one.
+Buttons: the trame page defers its state updates while a request is in flight but sends a
+click at once, so the server can see a click before the name typed just before it.  The
+buttons that read a field (Save, Load, Render, remove light) therefore carry that field with
+the click: here the server's state holds a stale value and the click the new one.
+
+Drag handles: VTK mouse events on the 3-D view's interactor, as the browser forwards them.
 """
 
 from __future__ import annotations
 
 import time
 
+import numpy as np
 import pytest
 
 from rigsim.config.rig import load_rig
@@ -93,8 +95,6 @@ def test_dragging_a_light_handle_moves_the_light_and_the_housing_refuses_it(app)
     """From behind the housing (image left = screen left), drag the left strobe's sphere
     further left: the light's arm gets longer, its aim point is kept; drag it onto the
     port: refused with a message, and the handle goes back to the light."""
-    import numpy as np
-
     app.plotter.ren_win.GetInteractor().Initialize()
     app.update_3d()
     app.view_behind()
@@ -140,8 +140,6 @@ def test_from_any_view_a_drag_swings_the_arm_and_shift_moves_freely(app):
     """From the default oblique view the screen's plane is not the arm's: a plain drag keeps
     the forward offset and puts the light where the mouse was let go (on the screen); with
     Shift the light moves in the screen's plane, so its forward offset changes."""
-    import numpy as np
-
     app.plotter.ren_win.GetInteractor().Initialize()
     app.update_3d()
     app.plotter.render()
@@ -165,8 +163,6 @@ def test_from_any_view_a_drag_swings_the_arm_and_shift_moves_freely(app):
 
 
 def test_on_plane():
-    import numpy as np
-
     from rigsim.ui.handles import on_plane
 
     # from (0, 0, -2) along (1, 0, 1): the plane z = 0.5 is 2.5 m ahead, at x = 2.5
