@@ -35,7 +35,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from rigsim.config.rig import load_rig  # noqa: E402
-from rigsim.render.integrator import with_integrator  # noqa: E402
+from rigsim.render.integrators import with_integrator  # noqa: E402
 from rigsim.render.mitsuba_scene import build_mitsuba_scene  # noqa: E402
 from rigsim.render.renderer import band_edges, render_pass  # noqa: E402
 from rigsim.render.variant import mitsuba, variant  # noqa: E402

@@ -36,9 +36,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from rigsim.config.rig import load_rig  # noqa: E402
 from rigsim.preview import render_preview  # noqa: E402
-from rigsim.preview.geometry import camera_rays, cast_rays, scene_surfaces  # noqa: E402
+from rigsim.preview.geometry import cast_rays, scene_surfaces  # noqa: E402
+from rigsim.scene.optics import camera_rays, outside_index  # noqa: E402
 from rigsim.scene.build import build_scene  # noqa: E402
-from rigsim.water.kd import WATER_INDEX  # noqa: E402
 
 BANDS = {"blue": (400, 495), "green": (495, 595), "red": (595, 705)}
 KEYS = ("flash", "flash_direct", "flash_backscatter")
@@ -56,7 +56,7 @@ def interior_ids(scene, width: int, height: int, n: int = 4) -> np.ndarray:
     surf = scene_surfaces(scene)
     g = np.linspace(0.0, 1.0, n)
     X, Y = np.meshgrid((np.arange(width)[:, None] + g).ravel() / width, (np.arange(height)[:, None] + g).ravel() / height)
-    o, d = camera_rays(scene.camera, X, Y, n_water=WATER_INDEX)
+    o, d = camera_rays(scene.camera, X, Y, n_outside=outside_index(scene))
     oid = cast_rays(surf, o, d)[1].reshape(height, n, width, n)
     first = oid[:, :1, :, :1]
     return np.where(np.all(oid == first, axis=(1, 3)), first[:, 0, :, 0], -1)

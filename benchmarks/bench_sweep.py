@@ -47,7 +47,7 @@ def main(argv=None) -> int:
             return subprocess.call([sys.executable, __file__, *(argv if argv is not None else sys.argv[1:])],
                                    env=env)
 
-    from rigsim.render.camera import fov_water_deg
+    from rigsim.scene.optics import fov_water_deg
     from rigsim.render.mitsuba_scene import build_mitsuba_scene
     from rigsim.render.renderer import band_edges, render_pass
     from rigsim.render.variant import mitsuba, variant

@@ -1,8 +1,16 @@
-"""SpectralImage: spectral radiance at the entrance pupil, with ground truth.
+"""SpectralImage: spectral radiance at the entrance pupil, with ground truth and provenance.
 
 The one interface between the image makers (:mod:`rigsim.render`,
 :mod:`rigsim.preview`) and the image users (:mod:`rigsim.sensor`,
 :mod:`rigsim.metrics`).  One SpectralImage serves every sensor.
+
+Provenance is typed: :attr:`SpectralImage.scene` is the :class:`~rigsim.scene.types.Scene`
+that made the image (camera, lens, port, water, lights, targets, daylight) and
+:attr:`SpectralImage.render` how it was made (:class:`RenderInfo`: engine, seed, paths per
+pixel).  Later stages read physics from these (the sensor takes the f-number, the port and
+the medium from the scene), never from :attr:`SpectralImage.meta`, which is a free-form,
+JSON-ready description for people and reports.  :meth:`SpectralImage.save` writes both to
+``scene.json`` (:mod:`rigsim.scene.record`) and :meth:`SpectralImage.load` reads them back.
 """
 
 from __future__ import annotations
@@ -33,6 +41,35 @@ LAYER_DOCS = {
 
 #: Spectral layers that have a continuous (W) part and a flash (J) part.
 SPECTRAL_LAYERS = ("clear", "direct", "backscatter")
+#: The image makers.
+ENGINES = ("mitsuba", "preview")
+
+
+@dataclass(frozen=True)
+class RenderInfo:
+    """How an image was made.
+
+    Attributes
+    ----------
+    engine
+        ``"mitsuba"`` (the Monte Carlo renderer, :func:`rigsim.render.render`) or ``"preview"``
+        (the fast engine, :func:`rigsim.preview.render_preview`).
+    seed
+        Random seed (Monte Carlo; None for the deterministic fast engine).
+    spp
+        Paths per pixel of the ``full`` passes (Monte Carlo; None otherwise).
+    integrator
+        Mitsuba integrator (``"rigsim"``, ``"volpath"``), or None.
+    """
+
+    engine: str
+    seed: int | None = None
+    spp: int | None = None
+    integrator: str | None = None
+
+    def __post_init__(self):
+        if self.engine not in ENGINES:
+            raise ConfigError(f"unknown engine {self.engine!r}", field="engine", allowed=", ".join(ENGINES))
 
 
 @dataclass(frozen=True, eq=False)
@@ -50,8 +87,13 @@ class SpectralImage:
     layers
         Ground truth, keys from :data:`LAYER_DOCS`.
     meta
-        JSON-serialisable description of what made the image (scene, water,
-        seed, spp, engine, wall time ...).
+        JSON-serialisable description for people and reports (wall time, noise, the
+        object-id legend ``meta["object_ids"]`` …); nothing downstream reads physics from it.
+    scene
+        The typed :class:`~rigsim.scene.types.Scene` that made the image, or None (an image
+        of unknown origin: no port, no lens of its own).
+    render
+        :class:`RenderInfo`, or None.
     """
 
     radiance: np.ndarray
@@ -59,6 +101,8 @@ class SpectralImage:
     bandwidth_nm: np.ndarray
     layers: dict[str, np.ndarray] = field(default_factory=dict)
     meta: dict = field(default_factory=dict)
+    scene: object = None
+    render: RenderInfo | None = None
 
     def __post_init__(self):
         r = np.asarray(self.radiance)
@@ -101,7 +145,12 @@ class SpectralImage:
         return h
 
     def save(self, directory: str | Path) -> Path:
-        """Write ``spectral.npz`` (radiance + layers) and ``meta.json`` into ``directory`` atomically."""
+        """Write ``spectral.npz`` (radiance + layers), ``meta.json`` and ``scene.json`` (the typed
+        provenance, if any) into ``directory``, each atomically."""
+        from dataclasses import asdict
+
+        from rigsim.scene.record import scene_record
+
         d = Path(directory)
         d.mkdir(parents=True, exist_ok=True)
         arrays = {"radiance": np.asarray(self.radiance, np.float32),
@@ -111,6 +160,9 @@ class SpectralImage:
             arrays[f"layer_{k}"] = np.asarray(v)
         atomic_write_npz(d / "spectral.npz", arrays)
         atomic_write_text(d / "meta.json", json.dumps(self.meta, indent=2, default=_json_default))
+        prov = {"scene": None if self.scene is None else scene_record(self.scene),
+                "render": None if self.render is None else asdict(self.render)}
+        atomic_write_text(d / "scene.json", json.dumps(prov, default=_json_default))
         return d
 
     @classmethod
@@ -127,7 +179,20 @@ class SpectralImage:
         meta = {}
         if (d / "meta.json").is_file():
             meta = json.loads((d / "meta.json").read_text())
-        return cls(radiance=radiance, wavelength_nm=wl, bandwidth_nm=bw, layers=layers, meta=meta)
+        scene, render = None, None
+        if (d / "scene.json").is_file():
+            from rigsim.scene.record import scene_from_record
+
+            try:
+                prov = json.loads((d / "scene.json").read_text())
+            except (ValueError, UnicodeDecodeError) as exc:
+                raise ConfigError(f"cannot read scene.json: {exc}", file=d / "scene.json") from None
+            if prov.get("scene") is not None:
+                scene = scene_from_record(prov["scene"])
+            if prov.get("render") is not None:
+                render = RenderInfo(**prov["render"])
+        return cls(radiance=radiance, wavelength_nm=wl, bandwidth_nm=bw, layers=layers, meta=meta, scene=scene,
+                   render=render)
 
 
 def _json_default(o):

@@ -62,9 +62,10 @@ def capture_cmd(
     out: Path = typer.Option(..., "--out", help="Output directory."),
     iso: float = typer.Option(None, "--iso", help="ISO (default: the sensor's base ISO)."),
     shutter: str = typer.Option(None, "--shutter", help="Shutter time in s (0.008 or 1/125)."),
-    f_number: float = typer.Option(4.0, "--f-number", help="Lens f-number."),
+    f_number: float = typer.Option(None, "--f-number",
+                                   help="Lens f-number (default: the render's camera; stated in capture.json)."),
     transmittance: float = typer.Option(0.9, "--lens-transmittance", help="Lens transmittance (0-1]."),
-    vignetting: bool = typer.Option(False, "--vignetting", help="cos^4 vignetting (needs meta fov_deg)."),
+    vignetting: bool = typer.Option(False, "--vignetting", help="cos^4 vignetting of the render's camera."),
     auto_exposure: bool = typer.Option(False, "--auto-exposure", help="Choose the shutter time automatically."),
     ae_percentile: float = typer.Option(99.0, "--ae-percentile", help="Auto-exposure: raw percentile to place."),
     ae_target: float = typer.Option(0.8, "--ae-target", help="Auto-exposure: fraction of saturation."),
@@ -80,14 +81,16 @@ def capture_cmd(
     gain: float = typer.Option(1.0, "--gain", help="Digital gain before sRGB encoding."),
 ):
     """Photograph a render with a sensor: writes raw.dng, rgb.png, linear.tiff and capture.json."""
-    from rigsim.sensor import Exposure, Lens, NoiseSwitches, load_sensor, save_capture
+    from rigsim.sensor import Exposure, NoiseSwitches, load_sensor, save_capture
     from rigsim.sensor import auto_exposure as ae
     from rigsim.sensor import capture
     from rigsim.spectral_image import SpectralImage
 
     s = load_sensor(sensor)
     si = SpectralImage.load(render_dir)
-    lens = Lens(f_number=f_number, transmittance=transmittance, vignetting=vignetting)
+    from rigsim.sensor.optics import lens_for
+
+    lens = lens_for(si, f_number=f_number, transmittance=transmittance, vignetting=vignetting)
     if auto_exposure == (shutter is not None):
         raise ConfigError("give exactly one of --shutter and --auto-exposure", field="--shutter",
                           allowed="--shutter S or --auto-exposure")

@@ -106,7 +106,7 @@ def _water(rec: dict):
 def build_sample_scene(spec: DatasetSpec, rec: dict):
     """The Scene of a drawn sample."""
     from rigsim.config.rig import load_rig
-    from rigsim.render.camera import fov_water_deg
+    from rigsim.scene.optics import fov_water_deg
     from rigsim.scene.types import Scene, Target
 
     rig = load_rig(rec["rig"])
@@ -141,12 +141,11 @@ def _noise_free_linear(si, sensor, exposure, gains, ccm, layer=None) -> np.ndarr
     """Linear sRGB of a (ground-truth) spectral layer through the sensor, without noise or mosaic:
     the same normalisation, white-balance gains and colour matrix as the developed image."""
     from rigsim.sensor.pipeline import mean_electrons_rgb
-    from rigsim.spectral_image import SpectralImage
 
     if layer is not None:
         cont = si.layers.get(layer, np.zeros_like(si.radiance))
         fl = si.layers.get(f"flash_{layer}")
-        si = SpectralImage(cont, si.wavelength_nm, si.bandwidth_nm, {} if fl is None else {"flash": fl}, si.meta)
+        si = dataclasses.replace(si, radiance=cont, layers={} if fl is None else {"flash": fl})
     e = mean_electrons_rgb(si, sensor, exposure).astype(np.float64)
     k = sensor.iso_setting(exposure.iso).gain_dn_per_e
     norm = e * k / (sensor.white_level_dn - sensor.black_level_dn) * np.asarray(gains, float)
@@ -169,7 +168,7 @@ def compute_sample(args: tuple[DatasetSpec, int, int, dict | None]) -> dict:
     from rigsim.render import render
     from rigsim.sensor import load_sensor
     from rigsim.sensor.noise import NoiseSwitches
-    from rigsim.sensor.optics import Lens
+    from rigsim.sensor.optics import lens_for
     from rigsim.sensor.pipeline import DevelopOptions, auto_exposure, capture
     from rigsim.sensor.white_balance import white_balance_gains
 
@@ -181,17 +180,15 @@ def compute_sample(args: tuple[DatasetSpec, int, int, dict | None]) -> dict:
     si = render(scene, width=spec.width, height=spec.height, spp=spec.spp, seed=rec["render_seed"],
                 wavelengths_nm=spec.wavelengths_nm, layers=("range_m", "object_id", "clear", "backscatter"))
     sensor = load_sensor(rec["sensor"])
-    lens = Lens(f_number=scene.camera.f_number)
+    lens = lens_for(si)
     exposure = auto_exposure(si, sensor, lens=lens)
     # The clean image: same view, lighting, housing (port, water index) and sensor with the water's
     # absorption and scattering removed.  One development for both images: white balance fixed
     # from the clean view.
-    from rigsim.spectral_image import SpectralImage
 
     clean_cont = si.layers.get("clear", np.zeros_like(si.radiance))
     clean_flash = si.layers.get("flash_clear")
-    clean_si = SpectralImage(clean_cont, si.wavelength_nm, si.bandwidth_nm,
-                             {} if clean_flash is None else {"flash": clean_flash}, si.meta)
+    clean_si = dataclasses.replace(si, radiance=clean_cont, layers={} if clean_flash is None else {"flash": clean_flash})
     clean_raw = capture(clean_si, sensor, exposure, seed=rec["noise_seed"], noise=NoiseSwitches.off(), develop=None)
     gains = white_balance_gains(clean_raw.half_rgb(), "grayworld")
     opts = DevelopOptions(white_balance="manual", wb_kwargs={"gains": gains.tolist()})

@@ -182,9 +182,9 @@ def load_dataset_spec(path: str | Path) -> DatasetSpec:
             rig = load_rig(r)
         except ConfigError as exc:
             raise ConfigError(str(exc), file=path, field=f"rig.files[{i}]") from None
-        from rigsim.scene.build import port_reach_m
+        from rigsim.scene.optics import port_reach_m
 
-        port_reach.append(port_reach_m(rig))
+        port_reach.append(port_reach_m(rig.camera))
     power = _range(rg, "power_fraction", [1.0, 1.0], file=path, sec="rig", lo=0.0, hi=1.0, positive=True)
 
     from rigsim.sensor import load_sensor

@@ -71,7 +71,8 @@ from rigsim.daylight.surface import Surface, fresnel_reflectance_unpolarised, re
 from rigsim.errors import ConfigError
 from rigsim.spectrum import as_wavelengths
 from rigsim.water.model import Water
-from rigsim.water.phase import MixturePhase, PhaseFunction
+from rigsim.scene.phase_tables import PhaseTables, phase_tables
+from rigsim.water.phase import TabulatedPhase
 
 __all__ = [
     "Bottom",
@@ -211,30 +212,21 @@ def _nan_to_none(a: np.ndarray) -> list:
 
 
 class _PhaseAt:
-    """A phase function frozen at one wavelength (mixture weights computed once)."""
+    """The water's phase function at one wavelength, from the shared tables.
 
-    def __init__(self, phase: PhaseFunction, wl: float):
-        self.phase, self.wl = phase, float(wl)
-        self.mix = None
-        if isinstance(phase, MixturePhase):
-            w = np.asarray(phase.weights(self.wl), float).reshape(-1)
-            self.mix = (phase.components, w, np.cumsum(w))
+    :func:`rigsim.scene.phase_tables.phase_tables` (the decomposition the renderer and the fast
+    engine use): the components' cell masses mixed with their weights at ``wl``, sampled and
+    evaluated as a :class:`~rigsim.water.phase.TabulatedPhase` (cell by inverse CDF, uniform in
+    cos ψ inside the cell; the value is the cell's density).
+    """
+
+    def __init__(self, tables: PhaseTables, wl: float):
+        self.wl = float(wl)
+        w = tables.weights_at([self.wl])[0]
+        self.cells = TabulatedPhase(w @ tables.masses, tables.grid, name=tables.name)
 
     def sample(self, u: np.ndarray) -> np.ndarray:
-        if self.mix is None:
-            return np.asarray(self.phase.sample(u, self.wl), float)
-        comps, w, cw = self.mix
-        cw = cw.copy()
-        cw[-1] = 1.0
-        k = np.minimum(np.searchsorted(cw, u, side="right"), len(comps) - 1)
-        lo = np.where(k > 0, cw[np.maximum(k - 1, 0)], 0.0)
-        u2 = np.clip((u - lo) / np.where(w[k] > 0, w[k], 1.0), 0.0, np.nextafter(1.0, 0.0))
-        out = np.empty(u.shape)
-        for j, comp in enumerate(comps):
-            m = k == j
-            if np.any(m):
-                out[m] = comp.sample(u2[m])
-        return out
+        return np.asarray(self.cells.sample(u), float)
 
     def eval_fast(self, mu: np.ndarray, n: int = 4096) -> np.ndarray:
         """:meth:`eval` by linear interpolation in x = sin(ψ/2) on ``n`` nodes (for the local estimate)."""
@@ -248,10 +240,7 @@ class _PhaseAt:
         return lut[i] * (1.0 - f) + lut[i + 1] * f
 
     def eval(self, mu: np.ndarray) -> np.ndarray:
-        if self.mix is None:
-            return np.asarray(self.phase.eval(mu, self.wl), float)
-        comps, w, _ = self.mix
-        return sum(wk * c.eval(mu) for wk, c in zip(w, comps) if wk > 0)
+        return np.asarray(self.cells.eval(mu), float)
 
 
 def _rotate(d: np.ndarray, cos_t: np.ndarray, phi: np.ndarray) -> np.ndarray:
@@ -445,7 +434,7 @@ class _Tally:
                         self.add("Lu_cone", batch[r][cone], c[cone], w[r][cone] * inv_mu[r][cone] / self.lu_cone_sr)
 
 
-def _one_wavelength(wl: float, a: float, b: float, phase: PhaseFunction, e_sun: float, e_sky: float,
+def _one_wavelength(wl: float, a: float, b: float, phase: PhaseTables, e_sun: float, e_sky: float,
                     sky: SkyModel, sun_zenith_deg: float, surface: Surface, bottom: Bottom,
                     depths: np.ndarray, photons: int, batches: int, rng: np.random.Generator,
                     lu_cone_half_angle_deg: float, angular: tuple | None = None) -> tuple[_Tally, np.ndarray]:
@@ -718,9 +707,10 @@ def ambient_light_monte_carlo(water: Water, wavelength_nm, depth_m, *, sun_zenit
     budget_b = {k: np.zeros((batches, wl.size)) for k in
                 ("reflected", "water_leaving", "absorbed_water", "absorbed_bottom", "lost")}
     t0 = time.perf_counter()
+    tables = phase_tables(water.phase, water.wavelength_range_nm)
     for j, lam in enumerate(wl):
         rng = np.random.default_rng(np.random.SeedSequence([int(seed), int(round(1000 * lam))]))
-        tally, nb = _one_wavelength(float(lam), float(a_all[j]), float(b_all[j]), water.phase,
+        tally, nb = _one_wavelength(float(lam), float(a_all[j]), float(b_all[j]), tables,
                                     float(above.sun[j]), float(above.sky[j]), sky, float(sun_zenith_deg),
                                     surface, bottom, all_depths, photons, batches, rng,
                                     float(lu_cone_half_angle_deg), angular)

@@ -40,6 +40,7 @@ from rigsim.daylight.solar import SurfaceIrradiance, surface_irradiance
 from rigsim.daylight.surface import Surface, fresnel_reflectance_unpolarised
 from rigsim.spectrum import as_wavelengths
 from rigsim.water.model import Water
+from rigsim.water.refraction import WATER_INDEX
 
 __all__ = [
     "irradiance_reflectance_Gordon1975",
@@ -71,7 +72,7 @@ def irradiance_reflectance_shallow_Maritorena1994(r_deep, kd_per_m, height_above
                                                              np.asarray(height_above_bottom_m))
 
 
-def sky_fresnel_reflectance(sky: SkyModel, n_water: float = 1.34, n_mu: int = 400) -> float:
+def sky_fresnel_reflectance(sky: SkyModel, n_water: float = WATER_INDEX, n_mu: int = 400) -> float:
     """Share of the sky's plane irradiance a flat surface reflects: ``∫ ℓ cos θ R(θ) dΩ`` (0.066 for a uniform sky)."""
     if not sky.emits:
         return 0.0
@@ -85,7 +86,7 @@ def sky_fresnel_reflectance(sky: SkyModel, n_water: float = 1.34, n_mu: int = 40
 
 
 def transmitted_plane_irradiance(above: SurfaceIrradiance, sun_zenith_deg: float, sky: SkyModel,
-                                 n_water: float = 1.34) -> tuple[np.ndarray, np.ndarray]:
+                                 n_water: float = WATER_INDEX) -> tuple[np.ndarray, np.ndarray]:
     """Ed(0−) of the sun and of the sky through a flat surface (no internal reflection of upwelling light)."""
     t_sun = 1.0 - float(fresnel_reflectance_unpolarised(np.cos(np.radians(sun_zenith_deg)), 1.0, n_water))
     t_sky = 1.0 - sky_fresnel_reflectance(sky, n_water)

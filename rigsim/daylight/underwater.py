@@ -23,7 +23,7 @@ from rigsim.daylight.meter import Bottom, ambient_light_monte_carlo
 from rigsim.daylight.shortcut import ambient_light_kd
 from rigsim.daylight.sky import BlackSky, SkyModel, sky_model
 from rigsim.daylight.solar import SurfaceIrradiance, surface_irradiance
-from rigsim.daylight.surface import WATER_INDEX, fresnel_reflectance_unpolarised, snell_cos_transmitted
+from rigsim.water.refraction import WATER_INDEX, fresnel_reflectance_unpolarised, snell_cos_transmitted
 from rigsim.errors import ConfigError
 from rigsim.scene.types import Daylight
 from rigsim.spectrum import as_wavelengths

@@ -30,6 +30,7 @@ import numpy as np
 from rigsim.data import read_csv_table
 from rigsim.errors import ConfigError, DataError
 from rigsim.scene.types import BeamPattern
+from rigsim.water.refraction import WATER_INDEX
 
 __all__ = [
     "soft_cone",
@@ -108,7 +109,7 @@ def beam_from_csv(path: str | Path) -> BeamPattern:
                        relative=tuple(float(r / rel[0]) for r in rel))
 
 
-def beam_angle_in_water_deg(beam_angle_air_deg: float, water_index: float = 1.34) -> float:
+def beam_angle_in_water_deg(beam_angle_air_deg: float, water_index: float = WATER_INDEX) -> float:
     """Underwater beam angle of a flat-fronted light whose angle is rated in air.
 
     Snell's law at a flat front window (the glass slab does not change the

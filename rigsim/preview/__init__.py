@@ -4,8 +4,11 @@
   its references and its limits); same inputs and outputs as :func:`rigsim.render.render`;
 * :mod:`rigsim.preview.forward` — small-angle forward scattering (blur kernels);
 * :mod:`rigsim.preview.backscatter` — the single-scattering integral along each ray;
-* :mod:`rigsim.preview.phase` — the phase function as weighted cell tables;
-* :mod:`rigsim.preview.geometry` — camera rays, ray casting, shadows (numpy, no Mitsuba).
+* :mod:`rigsim.preview.geometry` — ray casting, shadows (numpy, no Mitsuba).
+
+Camera rays, the phase function's tables and the daylight field come from the scene's
+optics layer (:mod:`rigsim.scene.optics`, :mod:`rigsim.scene.phase_tables`,
+:mod:`rigsim.scene.daylight_field`), shared with the renderer.
 
 Importing this package does not load Mitsuba.
 """

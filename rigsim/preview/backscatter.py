@@ -125,7 +125,7 @@ def cumulative_backscatter(origin: np.ndarray, direction: np.ndarray, s: np.ndar
     kappa_cam
         (Λ,) attenuation on the camera leg.
     components
-        :class:`~rigsim.preview.phase.PhaseComponents`.
+        :class:`~rigsim.scene.phase_tables.PhaseTables`.
     forward
         Use the SAA illumination (see module docstring).
     surfaces

@@ -45,35 +45,59 @@ water, and missing when it lights the target).
 
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 import scipy.fft as sfft
+from scipy.special import itj0y0
 
-from rigsim.preview.phase import PhaseComponents
+from rigsim.scene.phase_tables import PhaseTables
 from rigsim.scene.types import BeamPattern
 
-__all__ = ["SmallAngle", "BEAM_GRID_N"]
+__all__ = ["SmallAngle", "BEAM_GRID_N", "saa_transform"]
 
 #: Cells per side of the angular grid of beam patterns (covering −π…π).
 BEAM_GRID_N = 128
 _NU0 = 1e-2  # cycles/rad: scale of the ν interpolation variable
 
 
-_Q_CACHE: dict = {}
+def saa_transform(tables: PhaseTables, nu_per_rad: np.ndarray, cutoff_rad: float) -> np.ndarray:
+    """Path-averaged Hankel transform of the small-angle part, per component: (K, n_nu).
+
+    ``Q_k(ν) = ∫₀¹ P̂_k(ν t) dt`` with ``P̂_k(ν) = Σ_{cells ψ<cutoff} m_kj J₀(2πνψ_j)``
+    (the 2-D Fourier transform of the component's small-angle part treated as a
+    density on the plane of angles; ψ_j the cell's log-midpoint), so
+    ``∫₀¹ J₀(x t) dt = (1/x) ∫₀ˣ J₀`` (:func:`scipy.special.itj0y0`).
+    ``Q_k(0)`` is the forward fraction.
+    """
+    cells = tables.forward_cells(cutoff_rad)
+    e = tables.grid.psi_edges
+    lo, hi = e[:-1][cells], e[1:][cells]
+    psi = np.where(lo > 0, np.sqrt(np.maximum(lo, 1e-300) * hi), hi / 2)
+    m = tables.masses[:, cells]  # (K, J)
+    nu = np.asarray(nu_per_rad, float)
+    out = np.empty((tables.n_components, nu.size))
+    chunk = max(1, 2_000_000 // max(psi.size, 1))
+    for i0 in range(0, nu.size, chunk):
+        x = 2 * np.pi * nu[i0:i0 + chunk, None] * psi[None, :]  # (n, J)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            g = np.where(x > 1e-8, itj0y0(x)[0] / np.where(x > 1e-8, x, 1.0), 1.0 - x * x / 12)
+        out[:, i0:i0 + chunk] = m @ g.T
+    return out
 
 
-def _q_table(components: PhaseComponents, cutoff_rad: float) -> tuple[np.ndarray, np.ndarray]:
-    """(x, Q_k) on ν = 0 and 240 log-spaced frequencies 10⁻²…2·10⁵ cycles/rad, x = ln(1 + ν/ν₀); cached."""
-    key = (id(components), float(cutoff_rad))
-    hit = _Q_CACHE.get(key)
-    if hit is not None and hit[0] is components:
-        return hit[1], hit[2]
-    nu = np.concatenate([[0.0], np.geomspace(1e-2, 2e5, 240)])
-    x = np.log1p(nu / _NU0)
-    q = components.saa_transform(nu, cutoff_rad)
-    if len(_Q_CACHE) > 32:
-        _Q_CACHE.clear()
-    _Q_CACHE[key] = (components, x, q)
-    return x, q
+_Q_CACHE: "weakref.WeakKeyDictionary[PhaseTables, dict]" = weakref.WeakKeyDictionary()
+
+
+def _q_table(components: PhaseTables, cutoff_rad: float) -> tuple[np.ndarray, np.ndarray]:
+    """(x, Q_k) on ν = 0 and 240 log-spaced frequencies 10⁻²…2·10⁵ cycles/rad, x = ln(1 + ν/ν₀);
+    kept while the tables live."""
+    per = _Q_CACHE.setdefault(components, {})
+    key = float(cutoff_rad)
+    if key not in per:
+        nu = np.concatenate([[0.0], np.geomspace(1e-2, 2e5, 240)])
+        per[key] = (np.log1p(nu / _NU0), saa_transform(components, nu, cutoff_rad))
+    return per[key]
 
 
 class SmallAngle:
@@ -91,7 +115,7 @@ class SmallAngle:
         (B, K) component weights at the band centres.
     """
 
-    def __init__(self, components: PhaseComponents, cutoff_rad: float, b_per_m: np.ndarray,
+    def __init__(self, components: PhaseTables, cutoff_rad: float, b_per_m: np.ndarray,
                  weights: np.ndarray):
         self.components = components
         self.cutoff_rad = float(cutoff_rad)

@@ -1,10 +1,7 @@
-"""Geometry of the preview: camera rays, ray casting against target surfaces, shadow tests.
+"""Geometry of the preview: ray casting against target surfaces, shadow tests.
 
-Pure numpy, no Mitsuba.  The camera is the renderer's (:mod:`rigsim.render.camera`):
-a pinhole at the entrance pupil, image column → ``right = forward × up``, row → −up,
-film position ``(px, py)`` in [0, 1]; a dome port leaves directions unchanged and the
-ray enters the water on the outer dome surface (``radius + thickness`` from the
-pupil); a flat port refracts air → glass → water exactly.  The surfaces are those of
+Pure numpy, no Mitsuba.  Camera rays come from :mod:`rigsim.scene.optics` (the one
+camera and port model, shared with the renderer).  The surfaces are those of
 :func:`rigsim.scene.targets.target_surfaces`, numbered 1… across all targets in scene
 order, as the renderer numbers them; they are two-sided Lambertian reflectors.
 
@@ -19,81 +16,9 @@ import numpy as np
 
 from rigsim.errors import ConfigError
 from rigsim.scene.targets import Surface, target_surfaces
-from rigsim.scene.types import Camera, Scene
+from rigsim.scene.types import Scene
 
-__all__ = ["camera_frame", "camera_rays", "pixel_grid_rays", "SceneSurfaces", "scene_surfaces",
-           "cast_rays", "occluded", "angular_pitch_rad"]
-
-
-def camera_frame(camera: Camera) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(forward, right, up)``: :meth:`rigsim.scene.types.Camera.frame` in the order the ray code uses."""
-    r, u, f = camera.frame()
-    return f, r, u
-
-
-def camera_rays(camera: Camera, px, py, *, n_water: float) -> tuple[np.ndarray, np.ndarray]:
-    """In-water ray origins and unit directions for film positions ``px``, ``py`` in [0, 1].
-
-    The same formulas as :func:`rigsim.render.camera.generate_rays` (float64 here).
-
-    Returns
-    -------
-    (origin, direction)
-        Arrays of shape ``shape(px) + (3,)``.
-    """
-    f, r, u = camera_frame(camera)
-    tx = camera.sensor_width_mm / (2.0 * camera.focal_length_mm)
-    ty = camera.sensor_height_mm / (2.0 * camera.focal_length_mm)
-    x = (2.0 * np.asarray(px, float) - 1.0) * tx
-    y = (1.0 - 2.0 * np.asarray(py, float)) * ty
-    d_air = f + r * x[..., None] + u * y[..., None]
-    d_air /= np.linalg.norm(d_air, axis=-1, keepdims=True)
-    pupil = np.asarray(camera.position_m, float)
-    port = camera.port
-    if port.kind == "flat":
-        cos_a = d_air @ f
-        trans = d_air - f * cos_a[..., None]
-        sin2 = np.sum(trans * trans, axis=-1)
-        ng = float(port.glass_index)
-        cos_g = np.sqrt(np.maximum(1.0 - sin2 / (ng * ng), 0.0))
-        cos_w = np.sqrt(np.maximum(1.0 - sin2 / (n_water * n_water), 0.0))
-        d_glass = trans / ng + f * cos_g[..., None]
-        d_water = trans / n_water + f * cos_w[..., None]
-        p1 = pupil + d_air * (float(port.standoff_m) / cos_a)[..., None]
-        origin = p1 + d_glass * (float(port.thickness_m) / cos_g)[..., None]
-        return origin, d_water
-    if port.kind == "dome":
-        origin = pupil + d_air * float(port.radius_m + port.thickness_m)
-        return origin, d_air
-    raise ConfigError(f"unknown port kind {port.kind!r}", field="camera.port.kind", allowed="dome, flat")
-
-
-def pixel_grid_rays(camera: Camera, width: int, height: int, *, n_water: float,
-                    step: float = 1.0) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Rays through a grid of film points ``step`` pixels apart, covering the image.
-
-    Returns ``(origin, direction, col, row)``: (m, n, 3) arrays and the pixel
-    coordinates (centres at half-integers) of the grid's columns and rows.
-    """
-    if step == 1.0:
-        col = np.arange(width) + 0.5
-        row = np.arange(height) + 0.5
-    else:
-        col = np.linspace(0.0, width, max(2, int(np.ceil(width / step)) + 1))
-        row = np.linspace(0.0, height, max(2, int(np.ceil(height / step)) + 1))
-    PX, PY = np.meshgrid(col / width, row / height)
-    o, d = camera_rays(camera, PX, PY, n_water=n_water)
-    return o, d, col, row
-
-
-def angular_pitch_rad(camera: Camera, width: int, height: int, *, n_water: float) -> tuple[float, float]:
-    """In-water angle (rad) between neighbouring pixel rays at the image centre (x, y)."""
-    _, d0 = camera_rays(camera, np.array(0.5), np.array(0.5), n_water=n_water)
-    _, dx = camera_rays(camera, np.array(0.5 + 1.0 / width), np.array(0.5), n_water=n_water)
-    _, dy = camera_rays(camera, np.array(0.5), np.array(0.5 + 1.0 / height), n_water=n_water)
-    ax = float(np.arccos(np.clip(d0 @ dx, -1, 1)))
-    ay = float(np.arccos(np.clip(d0 @ dy, -1, 1)))
-    return ax, ay
+__all__ = ["SceneSurfaces", "scene_surfaces", "cast_rays", "occluded"]
 
 
 @dataclass(frozen=True, eq=False)

@@ -18,11 +18,14 @@ The image is the sum of three components (McGlamery 1980; Jaffe 1990):
    water's own wavelength-dependent phase function (see
    :mod:`rigsim.preview.backscatter`), plus the path radiance of daylight.
 
-Daylight (``scene.daylight``) comes from :func:`rigsim.daylight.ambient_light_field_at_depth`
-(Kd shortcut or Monte Carlo meter): the target is lit by the attenuated sun beam and
-uniform down- and up-welling hemispheres (no shadows), and each line of sight
-collects the path radiance ``J (1 − e^{−κ s})/κ`` with ``J = b ∫ p L_amb dΩ`` from
-the same field and ``κ = c − K_d d_y`` (the field grows by ``e^{K_d}`` per metre up).
+Daylight (``scene.daylight``) is the scene's daylight field
+(:func:`rigsim.scene.daylight_field.scene_daylight`: the Kd shortcut or the Monte Carlo meter,
+with the Daylight's sky and photons) and its transport, the same tables and formulas as the
+renderer's: the target is lit by the sun beam and the diffuse field integrated over the
+hemisphere about its normal (each × its height factor; unoccluded), seen through ``e^{−c s}``
+(no forward-scattered halo, as the renderer's daylight), and each line of sight collects
+Duntley's path radiance ``L_amb(v)(1 − e^{−(c − K v_y) s})``, so a black target's contrast is
+``−e^{−c s}`` along a horizontal line of sight, as in the renderer.
 
 What is not in it: multiple wide-angle scattering (the "glow" of turbid water
 beyond a few optical depths), light scattered by more than the forward cut-off
@@ -66,7 +69,6 @@ import dataclasses
 import hashlib
 import json
 import time
-import warnings
 from collections.abc import Callable, Sequence
 
 import numpy as np
@@ -80,57 +82,22 @@ from rigsim.preview.backscatter import (
     s_nodes,
 )
 from rigsim.preview.forward import SmallAngle
-from rigsim.preview.geometry import (
-    angular_pitch_rad,
-    camera_frame,
-    camera_rays,
-    cast_rays,
-    occluded,
-    pixel_grid_rays,
-    scene_surfaces,
-)
-from rigsim.preview.phase import phase_components
+from rigsim.preview.geometry import cast_rays, occluded, scene_surfaces
+from rigsim.scene.daylight_field import height_factor, path_radiance, scene_daylight
+from rigsim.scene.phase_tables import phase_tables
 from rigsim.scene.types import Scene, unit
-from rigsim.spectral_image import SpectralImage
+from rigsim.spectral_image import RenderInfo, SpectralImage
 from rigsim.spectrum import DEFAULT_WAVELENGTHS_NM, band_edges
-from rigsim.water.kd import WATER_INDEX
+from rigsim.scene.imaging import IMAGE_LAYERS, check_int, check_scene_for_bands, image_request
+from rigsim.scene.optics import angular_pitch_rad, camera_rays, fov_water_deg, outside_index, pixel_rays, world_radius_m
 
 __all__ = ["render_preview", "PREVIEW_LAYERS", "band_edges"]
 
 #: Ground-truth layers ``render_preview`` can make (as the renderer's).
-PREVIEW_LAYERS = ("range_m", "clear", "object_id", "direct", "backscatter")
+PREVIEW_LAYERS = IMAGE_LAYERS
 RENDERER_NAME = "rigsim.preview (Jaffe-McGlamery)"
 
 ProgressCallback = Callable[[float, str], None]
-
-
-def _check_int(name: str, v, lo: int, hi: int) -> int:
-    try:
-        iv = int(v)
-    except (TypeError, ValueError):
-        raise ConfigError(f"must be an integer, got {v!r}", field=name) from None
-    if iv != v or iv < lo or iv > hi:
-        raise ConfigError(f"must be an integer in [{lo}, {hi}], got {v!r}", field=name)
-    return iv
-
-
-def _check_lights(scene: Scene, lo: float, hi: float) -> None:
-    for light in scene.lights:
-        if light.kind not in ("strobe", "continuous"):
-            raise ConfigError(f"light {light.name!r}: kind must be strobe or continuous, got {light.kind!r}",
-                              field=f"lights.{light.name}.kind")
-        wl = np.asarray(light.wavelength_nm, float)
-        a = np.asarray(light.axial_intensity, float)
-        if wl.size == 0 or a.size != wl.size:
-            raise ConfigError(f"light {light.name!r}: intensity table is empty or mismatched",
-                              field=f"lights.{light.name}")
-        if wl.size > 1 and (wl[0] > lo + 1e-9 or wl[-1] < hi - 1e-9):
-            raise ConfigError(f"light {light.name!r} spectrum covers {wl[0]:g}–{wl[-1]:g} nm, the bands need "
-                              f"{lo:g}–{hi:g} nm", field=f"lights.{light.name}",
-                              allowed=f"a spectrum covering {lo:g}–{hi:g} nm")
-        if not np.all(np.isfinite(a)) or np.any(a < 0):
-            raise ConfigError(f"light {light.name!r}: intensities must be finite and >= 0",
-                              field=f"lights.{light.name}")
 
 
 @dataclasses.dataclass
@@ -158,12 +125,12 @@ def _water_at(scene: Scene, wl: np.ndarray, lam: np.ndarray, cutoff_rad: float, 
         x = np.clip(x, lo, hi)
         return water.c_per_m(x), water.b_per_m(x)
 
-    comps = phase_components(water.phase, water.wavelength_range_nm)
+    comps = phase_tables(water.phase, water.wavelength_range_nm)
     F_k = comps.forward_fraction(cutoff_rad) if forward else np.zeros(comps.n_components)
     c_sub, b_sub = iops(lam)
     c, b = iops(wl)
-    w_sub = comps.weights(lam.ravel())
-    w = comps.weights(wl)
+    w_sub = comps.weights_at(lam.ravel())
+    w = comps.weights_at(wl)
     F_sub = (w_sub @ F_k).reshape(lam.shape)
     sa = SmallAngle(comps, cutoff_rad, b, w) if forward else None
     return _Water(c_sub, b_sub, F_sub, c, b, w @ F_k, (b[:, None] * w).T, comps, sa)
@@ -235,29 +202,17 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
     ((32, 48, 31), ['flash', 'flash_clear', 'object_id', 'range_m'])
     """
     t_start = time.perf_counter()
-    width = _check_int("width", width, 1, 16384)
-    height = _check_int("height", height, 1, 16384)
-    sub_bands = _check_int("sub_bands", sub_bands, 1, 16)
-    pixel_samples = _check_int("pixel_samples", pixel_samples, 1, 16)
-    backscatter_nodes = _check_int("backscatter_nodes", backscatter_nodes, 8, 4096)
+    req = image_request(width=width, height=height, wavelengths_nm=wavelengths_nm, bandwidth_nm=bandwidth_nm,
+                        layers=layers, split=split)
+    width, height, layers = req.width, req.height, req.layers
+    sub_bands = check_int("sub_bands", sub_bands, 1, 16)
+    pixel_samples = check_int("pixel_samples", pixel_samples, 1, 16)
+    backscatter_nodes = check_int("backscatter_nodes", backscatter_nodes, 8, 4096)
     if not 0.0 < float(forward_cutoff_deg) <= 90.0:
         raise ConfigError(f"forward cut-off must be in (0, 90] deg, got {forward_cutoff_deg}",
                           field="forward_cutoff_deg", allowed="0 < angle <= 90")
-    layers = tuple(layers)
-    for k in layers:
-        if k not in PREVIEW_LAYERS:
-            raise ConfigError(f"unknown layer {k!r}", field="layers", allowed=", ".join(PREVIEW_LAYERS))
-    if split:
-        layers = layers + tuple(k for k in ("direct", "backscatter") if k not in layers)
-    wl, bw = band_edges(wavelengths_nm, bandwidth_nm)
-    _check_lights(scene, float(wl[0] - bw[0] / 2), float(wl[-1] + bw[-1] / 2))
-    if scene.water is not None:
-        scene.water.check_range([float(wl[0]), float(wl[-1])])
-    camera_frame(scene.camera)  # validates forward/up
-    if abs(width / height - scene.camera.sensor_width_mm / scene.camera.sensor_height_mm) > 0.02 * width / height:
-        warnings.warn(f"image aspect {width}x{height} differs from the sensor's "
-                      f"{scene.camera.sensor_width_mm}x{scene.camera.sensor_height_mm} mm; "
-                      "pixels will not be square", RuntimeWarning, stacklevel=2)
+    wl, bw = req.wavelength_nm, req.bandwidth_nm
+    check_scene_for_bands(scene, req)
 
     def tick(frac, msg):
         if progress is not None:
@@ -274,7 +229,8 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
     pupil = np.asarray(cam.position_m, float)
 
     # --- pixel-centre rays: geometry layers ----------------------------------------------
-    o_c, d_c, cols, rows = pixel_grid_rays(cam, width, height, n_water=WATER_INDEX)
+    n_out = outside_index(scene)
+    o_c, d_c, cols, rows = pixel_rays(cam, width, height, n_outside=n_out)
     t_c, oid_c = cast_rays(surf, o_c, d_c)
     p_c = o_c + np.where(np.isfinite(t_c), t_c, 0.0)[..., None] * d_c
     range_m = np.where(oid_c > 0, np.linalg.norm(p_c - pupil, axis=-1), np.inf).astype(np.float32)
@@ -288,7 +244,7 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
         o_s, d_s, t_s, oid_s = o_c, d_c, t_c, oid_c
     else:
         PXg, PYg = np.meshgrid(PX, PY)  # (H n, W n)
-        o_s, d_s = camera_rays(cam, PXg, PYg, n_water=WATER_INDEX)
+        o_s, d_s = camera_rays(cam, PXg, PYg, n_outside=n_out)
         t_s, oid_s = cast_rays(surf, o_s, d_s)
     hit = oid_s > 0
     ts = np.where(hit, t_s, 0.0)
@@ -310,8 +266,8 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
     shape = (height, width, B)
     sshape = p_s.shape[:-1] + (B,)
     results: dict[tuple[str, str], np.ndarray] = {}
-    pitch = angular_pitch_rad(cam, width, height, n_water=WATER_INDEX)
-    world_r = _world_radius(scene)
+    pitch = angular_pitch_rad(cam, width, height, n_outside=n_out)
+    world_r = world_radius_m(scene)
     r_nodes = np.geomspace(0.05, world_r, 16)  # distances of the blurred-beam tables (m)
     beam_cache: dict = {}
 
@@ -360,9 +316,11 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
                 scattered += geo[..., None] * fb * amp * (rho_c[oid_s] * I_c)
             tables.append(lt)
         if has_day:
-            E_sun, E_diff, day, kd_day = _daylight_on_surfaces(scene, p_s, nrm, hit, wl)
-            direct_day = rho_c[oid_s] / np.pi * E_sun
-            scattered += rho_c[oid_s] / np.pi * E_diff
+            # the target lit by the scene's daylight field (as the renderer: sun beam and diffuse
+            # field; no forward-scattered halo of it, the renderer's daylight transport has none)
+            day = scene_daylight(scene, req.band_lo_nm, req.band_hi_nm)
+            day_lit = rho_c[oid_s] / np.pi * _daylight_irradiance(day, p_s, nrm, wl)
+            clear += day_lit
         clear = _pixel_mean(_expand(clear, sample_shape, hidx), n)
         if not has_water:
             results[(gname, "full")] = clear
@@ -371,14 +329,14 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
             results[(gname, "backscatter")] = np.zeros(shape)
             continue
         T = np.exp(-water.c * ts[..., None])
-        if has_day:
-            direct += direct_day * T
         scattered *= T
         fwd = np.zeros(shape)
         if forward:
             src = _pixel_mean(_expand((direct + scattered) * np.expm1(water.b * water.F * ts[..., None]),
                                       sample_shape, hidx), n)
             fwd = water.small_angle.blur_image(src, range_m.astype(float), pitch)
+        if has_day:
+            direct += day_lit * T
         direct = _pixel_mean(_expand(direct, sample_shape, hidx), n)
         scattered = _pixel_mean(_expand(scattered, sample_shape, hidx), n)
         tick(0.3 + 0.3 * gi, f"{gname}: direct and forward")
@@ -387,7 +345,7 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
             back += _backscatter(scene, surf, tables, water, forward, cam, width, height, t_c, cols, rows,
                                  world_r, backscatter_grid, backscatter_nodes, shadows)
         if has_day:
-            back += _daylight_path_radiance(day, kd_day, water, d_c, t_c, world_r)
+            back += _daylight_path_radiance(day, o_c, d_c, t_c, wl)
         tick(0.5 + 0.3 * gi, f"{gname}: backscatter")
         results[(gname, "full")] = direct + scattered + fwd + back
         results[(gname, "clear")] = clear
@@ -419,7 +377,7 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
         "passes": [f"{g}:full" for g in ("continuous", "strobe") if (g, "full") in results],
         "water": scene.water.describe() if has_water else None,
         "camera": dataclasses.asdict(cam),
-        "fov_water_x_deg": _fov_water_deg(cam),
+        "fov_water_x_deg": fov_water_deg(cam, n_out),
         "lights": [l.describe() for l in scene.lights],
         "targets": [dataclasses.asdict(t) for t in scene.targets],
         "object_ids": {str(i + 1): lab for i, lab in enumerate(surf.labels)},
@@ -437,7 +395,8 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
         default=str).encode()).hexdigest()[:16]
     meta["wall_time_s"] = time.perf_counter() - t_start
     tick(1.0, "done")
-    return SpectralImage(radiance=radiance, wavelength_nm=wl, bandwidth_nm=bw, layers=out_layers, meta=meta)
+    return SpectralImage(radiance=radiance, wavelength_nm=wl, bandwidth_nm=bw, layers=out_layers, meta=meta,
+                         scene=scene, render=RenderInfo("preview"))
 
 
 # ---------------------------------------------------------------------------------------
@@ -463,20 +422,6 @@ def _pixel_mean(a: np.ndarray, n: int) -> np.ndarray:
     return a.reshape(H, n, W, n, *a.shape[2:]).mean(axis=(1, 3))
 
 
-def _world_radius(scene: Scene) -> float:
-    """The renderer's water sphere radius (m): ≥ 1 km and ≫ every distance in the scene."""
-    pts = [np.asarray(scene.camera.position_m, float)] + [np.asarray(l.position_m, float) for l in scene.lights]
-    ext = max([t.distance_m for t in scene.targets] + [float(np.linalg.norm(p)) for p in pts] + [1.0])
-    return float(max(1000.0, 100.0 * ext))
-
-
-def _fov_water_deg(camera) -> float:
-    half_air = np.radians(camera.fov_air_x_deg) / 2
-    if camera.port.kind == "flat":
-        return float(np.degrees(2 * np.arcsin(np.sin(half_air) / WATER_INDEX)))
-    return float(np.degrees(2 * half_air))
-
-
 def _backscatter(scene, surf, tables, water, forward, cam, width, height, t_c, cols, rows, world_r,
                  grid, n_nodes, shadows) -> np.ndarray:
     kappa_cam = water.c - water.b * water.F if forward else water.c
@@ -485,10 +430,10 @@ def _backscatter(scene, surf, tables, water, forward, cam, width, height, t_c, c
     s_max = world_r if k_min <= 0 else min(world_r, 50.0 / k_min)
     s, _ = s_nodes(s_max, n_nodes)
     if grid is None:
-        o, d, gcol, grow = pixel_grid_rays(cam, width, height, n_water=WATER_INDEX)
+        o, d, gcol, grow = pixel_rays(cam, width, height, n_outside=outside_index(scene))
     else:
         step = max(width, height) / float(grid)
-        o, d, gcol, grow = pixel_grid_rays(cam, width, height, n_water=WATER_INDEX, step=max(step, 1e-9))
+        o, d, gcol, grow = pixel_rays(cam, width, height, n_outside=outside_index(scene), step=max(step, 1e-9))
     cum = cumulative_backscatter(o.reshape(-1, 3), d.reshape(-1, 3), s, tables, bw=water.bw, c=water.c,
                                  kappa_light=kappa_light, kappa_cam=kappa_cam,
                                  components=water.components, forward=forward,
@@ -498,63 +443,32 @@ def _backscatter(scene, surf, tables, water, forward, cam, width, height, t_c, c
 
 
 # --- daylight ------------------------------------------------------------------------------
-def _daylight_field(scene: Scene, wl_flat: np.ndarray):
-    from rigsim.daylight import ambient_light_field_at_depth
+def _daylight_irradiance(day, p, nrm, wl) -> np.ndarray:
+    """Daylight irradiance (N, B) on surface samples at ``p`` with normals ``nrm`` (facing the camera).
 
-    return ambient_light_field_at_depth(scene.daylight, scene.water, wl_flat)
-
-
-def _daylight_on_surfaces(scene: Scene, p, nrm, hit, wl):
-    """Daylight irradiance on the surface samples at band centres: (unscattered sun, diffuse), the field, Kd."""
-    water = scene.water
-    lo, hi = water.wavelength_range_nm
-    wl_c = np.clip(wl, lo, hi)
-    day = _daylight_field(scene, wl_c)
-    kd = water.kd_per_m(wl_c, scene.daylight.sun_zenith_deg)
-    c = water.c_per_m(wl_c)
-    cam_y = float(scene.camera.position_m[1])
-    dz = (cam_y - p[..., 1])[..., None]  # how much deeper than the camera (m)
-    sun_dir = np.asarray(day.sun.direction, float)
-    mu_w = np.cos(np.radians(day.sun.zenith_water_deg))
-    cos_sun = np.clip(-(nrm @ sun_dir), 0.0, None) * hit
-    ny = nrm[..., 1]
-    E_sun = cos_sun[..., None] * day.sun.irradiance_normal * np.exp(-c * dz / mu_w)
-    E_diff = (np.pi * day.diffuse_down_radiance * ((1 + ny) / 2 * hit)[..., None]
-              + np.pi * day.up_radiance * ((1 - ny) / 2 * hit)[..., None]) * np.exp(-kd * dz)
-    return E_sun, E_diff, day, kd
+    Sun beam × cos × the beam's height factor × caustics, plus the diffuse field integrated over
+    the hemisphere about the normal × its height factor (:mod:`rigsim.scene.daylight_field`;
+    unoccluded: no shadows or light from other targets).
+    """
+    idx = day.band_index(wl)
+    dy = (p[..., 1] - day.y0)[..., None]
+    sun = np.asarray(day.sun_direction, float)
+    cos_sun = np.clip(-(nrm @ sun), 0.0, None)
+    e_sun = (cos_sun * day.caustic(p))[..., None] * day.beam[idx] * height_factor(day.k_beam[idx], dy, np.exp)
+    # the diffuse field's irradiance per distinct normal (targets are flat pieces: few normals)
+    fld = day.field
+    dirs, dw = fld.bin_directions(4)
+    uniq, inv = np.unique(np.round(nrm, 9), axis=0, return_inverse=True)
+    cosw = np.stack([np.clip(dirs @ n, 0.0, None).sum(axis=-1) * dw for n in uniq])  # (U, nθ, nφ)
+    e_dif_u = np.einsum("btp,utp->ub", day.diffuse[idx], cosw)
+    e_dif = e_dif_u[np.asarray(inv).ravel()] * height_factor(day.k_diffuse[idx], dy, np.exp)
+    return e_sun + e_dif
 
 
-def _daylight_path_radiance(day, kd, water, d, t_hit, world_r) -> np.ndarray:
-    """Path radiance of daylight along each pixel ray (H, W, B): ``J (1 − e^{−κ s})/κ``, ``κ = c − Kd d_y``."""
-    comps = water.components
-    mu = np.linspace(-1, 1, 41)
-    hd, hu = _hemisphere_phase_integrals(comps, mu)  # (n_mu, K) each
-    out_dir = -d  # the scattered light travels towards the camera
-    mu_pix = out_dir[..., 1]
-    Hd = np.stack([np.interp(mu_pix, mu, hd[:, k]) for k in range(hd.shape[1])], axis=-1) @ water.bw
-    Hu = np.stack([np.interp(mu_pix, mu, hu[:, k]) for k in range(hu.shape[1])], axis=-1) @ water.bw
-    cos_sun = out_dir @ np.asarray(day.sun.direction, float)
-    Ps = comps.eval_components(cos_sun) @ water.bw
-    J = Ps * day.sun.irradiance_normal + Hd * day.diffuse_down_radiance + Hu * day.up_radiance
-    # going up (d_y > 0) the field grows as e^{Kd d_y s}
-    kappa = water.c - kd * d[..., 1:2]
-    s = np.minimum(np.where(np.isfinite(t_hit), t_hit, world_r), world_r)[..., None]
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        frac = np.where(np.abs(kappa) > 1e-12, -np.expm1(-kappa * s) / np.where(np.abs(kappa) > 1e-12, kappa, 1.0), s)
-    return J * frac
-
-
-def _hemisphere_phase_integrals(comps, mu_out: np.ndarray, n_theta: int = 96, n_phi: int = 64):
-    """For outgoing directions with vertical component ``mu_out``: ∫ p_k over incoming light going down / up."""
-    ct = (np.arange(n_theta) + 0.5) / n_theta  # |cos| of the incoming direction, uniform in cos
-    phi = (np.arange(n_phi) + 0.5) / n_phi * 2 * np.pi
-    so = np.sqrt(np.clip(1 - mu_out ** 2, 0, None))
-    st = np.sqrt(1 - ct ** 2)
-    dO = (1.0 / n_theta) * (2 * np.pi / n_phi)
-    out = []
-    for sign in (-1.0, 1.0):  # incoming light going down (y < 0), going up
-        cy = sign * ct
-        cos_psi = (mu_out[:, None, None] * cy[None, :, None]
-                   + so[:, None, None] * st[None, :, None] * np.cos(phi)[None, None, :])
-        out.append(comps.eval_components(cos_psi).sum(axis=(1, 2)) * dO)
-    return out[0], out[1]
+def _daylight_path_radiance(day, o, d, t_hit, wl) -> np.ndarray:
+    """Duntley's path radiance of the daylight field along each pixel ray (H, W, B), as the renderer's."""
+    idx = day.band_index(wl)
+    t = np.where(np.isfinite(t_hit), t_hit, np.inf)[..., None]
+    with np.errstate(over="ignore"):
+        return path_radiance(day.radiance(d, wl), day.c[idx], day.k_diffuse[idx], d[..., 1:2],
+                             (o[..., 1] - day.y0)[..., None], t, np.exp)

@@ -3,7 +3,7 @@
 * :func:`render` — the renderer (see :mod:`rigsim.render.renderer`);
 * :mod:`rigsim.render.phase_plugin` — the wavelength-dependent phase-function plugin;
 * :mod:`rigsim.render.emitter_plugin` — point lights with beam patterns;
-* :mod:`rigsim.render.camera` — camera rays through dome and flat ports;
+* camera rays: from :mod:`rigsim.scene.optics` (the one camera and port model);
 * :mod:`rigsim.render.targets`, :mod:`rigsim.render.mitsuba_scene` — the Mitsuba scene;
 * :mod:`rigsim.render.variant` — the Mitsuba variant (all Mitsuba imports go through it).
 

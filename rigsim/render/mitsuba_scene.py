@@ -3,7 +3,7 @@
 The water is a Mitsuba ``homogeneous`` medium with spectral ``sigma_t = c(λ)`` and
 ``albedo = b(λ)/c(λ)`` (resampled every 1 nm over 360–830 nm, ends held, ``c``
 floored at :data:`C_FLOOR_PER_M`) and the rigsim phase plugin.  It fills a sphere of
-radius :func:`world_radius` around the camera whose boundary is a ``null``
+radius :func:`rigsim.scene.optics.world_radius_m` around the camera whose boundary is a ``null``
 interface: rays that leave it travel on in vacuum and see black.  The camera rays
 start inside the water; every target surface has the water as its exterior.
 
@@ -28,6 +28,7 @@ from rigsim.render.phase_plugin import WaterPhaseFunction, make_phase
 from rigsim.render.spectra import regular_dict, spectrum_dict
 from rigsim.render.targets import MESH_TYPE, MitsubaSurface, mitsuba_surfaces
 from rigsim.render.variant import mitsuba
+from rigsim.scene.optics import WATER_INDEX, outside_index, world_radius_m
 from rigsim.scene.types import Scene
 
 __all__ = [
@@ -36,7 +37,6 @@ __all__ = [
     "MitsubaScene",
     "build_mitsuba_scene",
     "water_medium_dict",
-    "world_radius",
 ]
 
 mi, dr = mitsuba()
@@ -56,13 +56,7 @@ class MitsubaScene:
     surfaces: list[MitsubaSurface]
     shape_ids: dict[str, int] = field(default_factory=dict)  # Mitsuba shape id → object id
     mode: str = "full"
-
-
-def world_radius(scene: Scene) -> float:
-    """Radius of the water sphere (m): ≥ 1 km and ≫ every distance in the scene."""
-    pts = [np.asarray(scene.camera.position_m, float)] + [np.asarray(l.position_m, float) for l in scene.lights]
-    ext = max([t.distance_m for t in scene.targets] + [float(np.linalg.norm(p)) for p in pts] + [1.0])
-    return float(max(1000.0, 100.0 * ext))
+    n_outside: float = WATER_INDEX  # refractive index outside the port (rigsim.scene.optics.outside_index)
 
 
 _PHASE_CACHE: dict[int, tuple[object, WaterPhaseFunction]] = {}
@@ -133,7 +127,7 @@ def build_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: 
         Replace the water's phase function by this Mitsuba phase (dict or object),
         e.g. ``{"type": "hg", "g": 0.9}`` for comparisons.
     integrator
-        ``"rigsim"`` (equiangular sampling toward the lights, :mod:`rigsim.render.integrator`)
+        ``"rigsim"`` (equiangular sampling toward the lights, :mod:`rigsim.render.integrators`)
         or ``"volpath"`` (Mitsuba's stock volumetric path tracer).
     backscatter_aov
         The rigsim integrator also returns each path's backscatter (its light before it first
@@ -146,9 +140,9 @@ def build_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: 
     """
     if mode not in MODES:
         raise ValueError(f"mode must be one of {MODES}")
-    R = world_radius(scene)
+    R = world_radius_m(scene)
     surfaces = mitsuba_surfaces(scene.camera, scene.targets, flat_shapes=flat_shapes)
-    from rigsim.render.integrator import integrator_dict  # registers the rigsim_vol plugin
+    from rigsim.render.integrators import integrator_dict  # registers the rigsim plugins
 
     d: dict = {"type": "scene", "integrator": integrator_dict(integrator, max_depth=max_depth, rr_depth=rr_depth,
                                                                backscatter_aov=backscatter_aov)}
@@ -189,4 +183,5 @@ def build_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: 
                               allowed="rigsim")
         integ.set_ambient(ambient, R)
     shape_ids = {s.key: i + 1 for i, s in enumerate(surfaces)}
-    return MitsubaScene(scene=loaded, medium=medium_obj, surfaces=surfaces, shape_ids=shape_ids, mode=mode)
+    return MitsubaScene(scene=loaded, medium=medium_obj, surfaces=surfaces, shape_ids=shape_ids, mode=mode,
+                        n_outside=outside_index(scene))

@@ -16,8 +16,10 @@ plugin
   for *every* wavelength of the path, not only the hero one.  A small defensive
   uniform share ``ε`` = 1e-3 keeps ``q > 0`` wherever any ``p_k > 0``.
 
-Each component is held on the :class:`~rigsim.water.phase.LogAngleGrid` as cell
-densities (the exact cell averages, 1/sr) and a Walker alias table.  The densities
+The tables come from :func:`rigsim.scene.phase_tables.phase_tables` (the one
+decomposition, shared with the fast engine and the daylight meter); this module only
+converts them.  Each component is held on the :class:`~rigsim.water.phase.LogAngleGrid`
+as cell densities (the exact cell averages, 1/sr) and a Walker alias table.  The densities
 the plugin uses for both the value and the pdf are the masses its float32 alias
 table *realises* (computed in float64; they differ from the model's by < 1e-5
 relative), so value, pdf and sampler agree exactly and no cell the model gives
@@ -34,29 +36,24 @@ Direction convention (Mitsuba): ``mei.wi`` points *away* from the interaction
 built in ``mei.sh_frame`` (= ``Frame3f(wi)``, set by Mitsuba's media) with local
 z = −cos ψ.
 
-Components that are themselves wavelength-dependent but not a
-:class:`~rigsim.water.phase.MixturePhase` are tabulated at nodes every 10 nm and
-interpolated linearly in wavelength (hat-function weights), the same machinery.
+The integrator (:mod:`rigsim.render.integrators`) reads the same tables through the public
+methods :meth:`WaterPhaseFunction.component_weights`, :meth:`~WaterPhaseFunction.cell_of`
+and :attr:`~WaterPhaseFunction.cell_densities`.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
 from rigsim.render.variant import mitsuba
-from rigsim.spectrum import MITSUBA_WAVELENGTH_RANGE_NM
-from rigsim.water.phase import DEFAULT_GRID, LogAngleGrid, MixturePhase, PhaseFunction
+from rigsim.scene.phase_tables import PhaseTables, phase_tables
+from rigsim.water.phase import PhaseFunction
 
 __all__ = [
     "DEFENSIVE_FRACTION",
     "PLUGIN_NAME",
-    "WEIGHT_STEP_NM",
-    "PhaseTables",
     "WaterPhaseFunction",
     "make_phase",
-    "phase_tables",
 ]
 
 mi, dr = mitsuba()
@@ -65,93 +62,8 @@ mi, dr = mitsuba()
 PLUGIN_NAME = "rigsim_water_phase"
 #: Share of directions drawn uniformly over the sphere (keeps the pdf positive).
 DEFENSIVE_FRACTION = 1e-3
-#: Spacing of the wavelength table of the component weights (nm).
-WEIGHT_STEP_NM = 1.0
 #: Spacing of the table the plugin reads the weights from (nearest node), nm.
 WEIGHT_FINE_STEP_NM = 0.1
-#: Node spacing for phase functions that depend on wavelength in another way (nm).
-GENERIC_NODE_STEP_NM = 10.0
-
-
-@dataclass(frozen=True, eq=False)
-class PhaseTables:
-    """A phase function as the plugin holds it (numpy, float64).
-
-    Attributes
-    ----------
-    grid
-        The angular grid.
-    masses
-        (K, n_cells) probability of each cell for each component (rows sum to 1).
-    weight_wavelength_nm
-        (M,) wavelength nodes of the weight table (nm), uniform.
-    weights
-        (M, K) component weights at the nodes (rows sum to 1).
-    name
-        Name of the phase function.
-    """
-
-    grid: LogAngleGrid
-    masses: np.ndarray
-    weight_wavelength_nm: np.ndarray
-    weights: np.ndarray
-    name: str
-
-    @property
-    def n_components(self) -> int:
-        return self.masses.shape[0]
-
-    def eval(self, cos_psi, wavelength_nm) -> np.ndarray:
-        """Reference value (1/sr) of the tabulated function, numpy, for tests."""
-        idx = self.grid.cell_index(cos_psi)
-        dens = self.masses[:, idx] / self.grid.solid_angles[idx]  # (K, N)
-        w = np.stack([np.interp(wavelength_nm, self.weight_wavelength_nm, self.weights[:, k])
-                      for k in range(self.n_components)], axis=-1)
-        return np.einsum("...k,k...->...", w, dens)
-
-
-def _weight_nodes(lo: float, hi: float) -> np.ndarray:
-    a, b = MITSUBA_WAVELENGTH_RANGE_NM
-    n = int(round((b - a) / WEIGHT_STEP_NM)) + 1
-    return np.linspace(a, b, n)
-
-
-def phase_tables(phase: PhaseFunction, wavelength_range_nm: tuple[float, float] | None = None,
-                 grid: LogAngleGrid = DEFAULT_GRID) -> PhaseTables:
-    """Tabulate a rigsim phase function for the plugin.
-
-    Parameters
-    ----------
-    phase
-        Any :class:`~rigsim.water.phase.PhaseFunction`.
-    wavelength_range_nm
-        Where the phase function is defined (the water's range); weights outside it
-        are held at the end values (those wavelengths are never rendered).
-    grid
-        Angular grid (the default grid of :mod:`rigsim.water.phase`).
-    """
-    nodes = _weight_nodes(*MITSUBA_WAVELENGTH_RANGE_NM)
-    lo, hi = wavelength_range_nm or MITSUBA_WAVELENGTH_RANGE_NM
-    lo, hi = max(lo, nodes[0]), min(hi, nodes[-1])
-    wl_eval = np.clip(nodes, lo, hi)
-    if isinstance(phase, MixturePhase) and not any(c.wavelength_dependent for c in phase.components):
-        masses = np.stack([np.asarray(c.cell_masses(grid), float) for c in phase.components])
-        weights = np.asarray(phase.weights(wl_eval), float).reshape(len(nodes), -1)
-    elif not phase.wavelength_dependent:
-        masses = np.asarray(phase.cell_masses(grid), float)[None, :]
-        weights = np.ones((len(nodes), 1))
-    else:
-        n_nodes = max(2, int(np.ceil((hi - lo) / GENERIC_NODE_STEP_NM)) + 1)
-        lam = np.linspace(lo, hi, n_nodes)
-        masses = np.stack([np.asarray(phase.cell_masses(grid, w), float) for w in lam])
-        weights = np.stack([np.interp(wl_eval, lam, np.eye(n_nodes)[k]) for k in range(n_nodes)], axis=-1)
-    masses = np.clip(masses, 0.0, None)
-    masses = masses / masses.sum(axis=1, keepdims=True)
-    weights = np.clip(np.nan_to_num(weights, nan=0.0), 0.0, None)
-    s = weights.sum(axis=1, keepdims=True)
-    weights = np.where(s > 0, weights / np.where(s > 0, s, 1.0), 1.0 / weights.shape[1])
-    return PhaseTables(grid=grid, masses=masses, weight_wavelength_nm=nodes, weights=weights,
-                       name=getattr(phase, "name", "phase"))
 
 
 class WaterPhaseFunction(mi.PhaseFunction):
@@ -175,7 +87,8 @@ class WaterPhaseFunction(mi.PhaseFunction):
 
     # -- set-up ---------------------------------------------------------------------
     def set_tables(self, t: PhaseTables) -> WaterPhaseFunction:
-        """Load the tables into Dr.Jit arrays (alias tables, realised cell densities, weights)."""
+        """Load :class:`~rigsim.scene.phase_tables.PhaseTables` into Dr.Jit arrays (alias tables,
+        realised cell densities, weights)."""
         g = t.grid
         n = g.n_cells
         psi = g.psi_edges.astype(np.float64)
@@ -225,7 +138,35 @@ class WaterPhaseFunction(mi.PhaseFunction):
             self.fine_step = float(lam[1] - lam[0])
         self.eps = DEFENSIVE_FRACTION
         self.realised_masses = np.stack(realised)
+        self._omega = omega
         return self
+
+    # -- the tables as the integrator reads them ----------------------------------------
+    @property
+    def n_components(self) -> int:
+        """K, the number of wavelength-independent components."""
+        return self.K
+
+    @property
+    def cell_edges_rad(self) -> np.ndarray:
+        """ψ edges (rad) of the cells, 0 … π (float64)."""
+        psi = np.asarray(self.tables.grid.psi_edges, np.float64).copy()
+        psi[0], psi[-1] = 0.0, np.pi
+        return psi
+
+    @property
+    def cell_densities(self) -> np.ndarray:
+        """(K, cells) density per steradian of each component in each cell, as sampled (float64)."""
+        return np.asarray(self.realised_masses, np.float64)[:self.K] / self._omega[None, :]
+
+    def component_weights(self, wavelengths):
+        """``(w, w̄)``: ``w[k][j]`` the weight of component k at the path's wavelength j, ``w̄[k]``
+        their mean over the path's four wavelengths (Dr.Jit)."""
+        return self._weights(wavelengths)
+
+    def cell_of(self, psi):
+        """Cell index (Dr.Jit UInt32) of scattering angles ``psi`` (rad)."""
+        return self._cell_of(psi)
 
     # -- helpers (pure Dr.Jit: traced symbolically inside Mitsuba's loops) ------------
     def _weights(self, wavelengths):
@@ -358,7 +299,7 @@ def _alias_table(masses: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray
 
 
 def make_phase(phase: PhaseFunction, wavelength_range_nm=None) -> WaterPhaseFunction:
-    """A plugin instance for a rigsim phase function."""
+    """A plugin instance for a rigsim phase function (its :func:`~rigsim.scene.phase_tables.phase_tables`)."""
     return WaterPhaseFunction().set_tables(phase_tables(phase, wavelength_range_nm))
 
 

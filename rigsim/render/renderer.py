@@ -2,9 +2,10 @@
 
 How a render works
 ------------------
-Camera rays are generated here (pinhole + dome/flat port, see
-:mod:`rigsim.render.camera`), pixel positions jittered uniformly inside each pixel
-(box filter: the pixel value is the pixel-averaged radiance).  Each path carries
+Camera rays come from the scene's optics (pinhole + dome/flat port,
+:func:`rigsim.scene.optics.camera_rays`, numpy float64) for film positions jittered
+uniformly inside each pixel by the path's sampler (box filter: the pixel value is the
+pixel-averaged radiance), and are handed to the kernel as float32 arrays.  Each path carries
 four wavelengths (Mitsuba's spectral variants): the first is drawn stratified over
 the pixel's samples from the union of the bands (each band with probability 1/B,
 uniform inside it), the other three are rotated by 1/4, 2/4, 3/4 of that range.
@@ -33,11 +34,12 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from rigsim.errors import ConfigError, RigsimError
-from rigsim.render.camera import camera_frame, fov_water_deg, generate_rays
-from rigsim.render.mitsuba_scene import MitsubaScene, build_mitsuba_scene, world_radius
+from rigsim.render.mitsuba_scene import MitsubaScene, build_mitsuba_scene
 from rigsim.render.variant import is_jit, mitsuba, variant
+from rigsim.scene.imaging import IMAGE_LAYERS, check_int, check_scene_for_bands, image_request
+from rigsim.scene.optics import camera_rays, fov_water_deg, outside_index, world_radius_m
 from rigsim.scene.types import Scene
-from rigsim.spectral_image import SpectralImage
+from rigsim.spectral_image import RenderInfo, SpectralImage
 from rigsim.spectrum import DEFAULT_WAVELENGTHS_NM, band_edges
 
 __all__ = ["MAX_LANES", "NOISE_GROUPS_NM", "RENDER_LAYERS", "band_edges", "noise_groups", "render", "render_pass",
@@ -46,56 +48,25 @@ __all__ = ["MAX_LANES", "NOISE_GROUPS_NM", "RENDER_LAYERS", "band_edges", "noise
 mi, dr = mitsuba()
 
 #: Ground-truth layers ``render`` can make (``direct``/``backscatter`` also via ``split=True``).
-RENDER_LAYERS = ("range_m", "clear", "object_id", "direct", "backscatter")
+RENDER_LAYERS = IMAGE_LAYERS
 #: Most paths traced in one kernel launch (memory bound).
 MAX_LANES = 1 << 21
 
 ProgressCallback = Callable[[float, str], None]
 
 
-def _check_int(name: str, v, lo: int, hi: int | None = None) -> int:
-    try:
-        iv = int(v)
-    except (TypeError, ValueError):
-        raise ConfigError(f"must be an integer, got {v!r}", field=name) from None
-    if iv != v or iv < lo or (hi is not None and iv > hi):
-        raise ConfigError(f"must be an integer in [{lo}, {hi if hi is not None else '∞'}], got {v!r}", field=name)
-    return iv
-
-
-def _check_coverage(scene: Scene, lo: float, hi: float, centres: np.ndarray | None = None) -> None:
-    if scene.water is not None:
-        # the IOPs must be defined at every band centre; within a band beyond the water's
-        # table (e.g. 700-705 nm for a table ending at 700 nm) the end value is held
-        scene.water.check_range([lo, hi] if centres is None else [float(centres[0]), float(centres[-1])])
-    for light in scene.lights:
-        wl = np.asarray(light.wavelength_nm, float)
-        if wl.size == 0 or len(light.axial_intensity) != wl.size:
-            raise ConfigError(f"light {light.name!r}: intensity table is empty or mismatched",
-                              field=f"lights.{light.name}")
-        if wl.size > 1 and (wl[0] > lo + 1e-9 or wl[-1] < hi - 1e-9):
-            raise ConfigError(f"light {light.name!r} spectrum covers {wl[0]:g}–{wl[-1]:g} nm, the bands need "
-                              f"{lo:g}–{hi:g} nm", field=f"lights.{light.name}",
-                              allowed=f"a spectrum covering {lo:g}–{hi:g} nm")
-        a = np.asarray(light.axial_intensity, float)
-        if not np.all(np.isfinite(a)) or np.any(a < 0):
-            raise ConfigError(f"light {light.name!r}: intensities must be finite and >= 0",
-                              field=f"lights.{light.name}")
-    for i, t in enumerate(scene.targets):
-        if t.reflectance:
-            wl = np.asarray(t.reflectance_wavelength_nm, float)
-            r = np.asarray(t.reflectance, float)
-            if np.any(~np.isfinite(r)) or np.any(r < 0) or np.any(r > 1):
-                raise ConfigError("reflectance must be within 0…1", field=f"targets[{i}].reflectance",
-                                  allowed="0 ≤ r ≤ 1")
-            if wl.size > 1 and (wl[0] > lo + 1e-9 or wl[-1] < hi - 1e-9):
-                raise ConfigError(f"reflectance covers {wl[0]:g}–{wl[-1]:g} nm, the bands need {lo:g}–{hi:g} nm",
-                                  field=f"targets[{i}].reflectance")
-
-
 def _chunk_seed(seed: int, pass_index: int, chunk: int) -> int:
     h = hashlib.blake2b(f"{seed}:{pass_index}:{chunk}".encode(), digest_size=4).digest()
     return int.from_bytes(h, "little")
+
+
+def _rays(camera, px, py, n_outside: float):
+    """Mitsuba rays for film positions (Dr.Jit arrays) from the scene's optics (numpy)."""
+    dr.eval(px, py)
+    o, d = camera_rays(camera, np.asarray(px, np.float64), np.asarray(py, np.float64), n_outside=n_outside)
+    o32, d32 = o.astype(np.float32), d.astype(np.float32)
+    return (mi.Point3f(*(mi.Float(np.ascontiguousarray(o32[:, k])) for k in range(3))),
+            mi.Vector3f(*(mi.Float(np.ascontiguousarray(d32[:, k])) for k in range(3))))
 
 
 def render_pass(ms: MitsubaScene, camera, *, width: int, height: int, spp: int, seed: int,
@@ -148,7 +119,7 @@ def render_pass(ms: MitsubaScene, camera, *, width: int, height: int, spp: int, 
         row = mi.Float(pix // W_o + row0_o)
         col = mi.Float(pix % W_o)
         jit = sampler.next_2d()
-        o, d = generate_rays(camera, (col + jit.x) / width, (row + jit.y) / height, width, height)
+        o, d = _rays(camera, (col + jit.x) / width, (row + jit.y) / height, ms.n_outside)
         ray = mi.RayDifferential3f(o, d)
         lams, bands = [], []
         for j in range(4):
@@ -270,7 +241,7 @@ def _geometry_layers(ms: MitsubaScene, scene: Scene, width: int, height: int) ->
     idx = dr.arange(mi.UInt32, n)
     row = mi.Float(idx // width) + 0.5
     col = mi.Float(idx % width) + 0.5
-    o, d = generate_rays(scene.camera, col / width, row / height, width, height)
+    o, d = _rays(scene.camera, col / width, row / height, ms.n_outside)
     si = ms.scene.ray_intersect(mi.Ray3f(o, d))
     oid = dr.zeros(mi.Int32, n)
     for sh in ms.scene.shapes():
@@ -315,7 +286,7 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
         Called as ``progress(fraction_done, message)`` after each kernel launch.
     integrator
         ``"rigsim"`` (default: equiangular sampling toward the lights with MIS, far less noise
-        in strobe-lit water; :mod:`rigsim.render.integrator`) or ``"volpath"`` (Mitsuba's own).
+        in strobe-lit water; :mod:`rigsim.render.integrators`) or ``"volpath"`` (Mitsuba's own).
     noise_target
         Render the ``full`` passes in batches of ``spp`` until the Monte Carlo noise is below
         this: the 99th percentile over pixels of the standard error of the pixel's mean
@@ -341,20 +312,15 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
     if noise_target is not None and not (isinstance(noise_target, (int, float)) and 0 < noise_target < 10):
         raise ConfigError(f"noise_target must be a number in (0, 10), got {noise_target!r}", field="noise_target",
                           allowed="e.g. 0.2 (20 % of the local mean at the 99th percentile of pixels)")
-    width = _check_int("width", width, 1, 16384)
-    height = _check_int("height", height, 1, 16384)
-    spp = _check_int("spp", spp, 1, 1 << 20)
-    seed = _check_int("seed", seed, 0, 2**32 - 1)
-    max_spp = _check_int("max_spp", 8 * spp if max_spp is None else max_spp, spp, 1 << 24)
-    layers = tuple(layers)
-    for k in layers:
-        if k not in RENDER_LAYERS:
-            raise ConfigError(f"unknown layer {k!r}", field="layers", allowed=", ".join(RENDER_LAYERS))
-    if split:
-        layers = layers + tuple(k for k in ("direct", "backscatter") if k not in layers)
-    wl, bw = band_edges(wavelengths_nm, bandwidth_nm)
+    req = image_request(width=width, height=height, wavelengths_nm=wavelengths_nm, bandwidth_nm=bandwidth_nm,
+                        layers=layers, split=split)
+    width, height, layers = req.width, req.height, req.layers
+    spp = check_int("spp", spp, 1, 1 << 20)
+    seed = check_int("seed", seed, 0, 2**32 - 1)
+    max_spp = check_int("max_spp", 8 * spp if max_spp is None else max_spp, spp, 1 << 24)
+    wl, bw = req.wavelength_nm, req.bandwidth_nm
     lo_edges = wl - bw / 2
-    _check_coverage(scene, float(lo_edges[0]), float(wl[-1] + bw[-1] / 2), centres=wl)
+    check_scene_for_bands(scene, req)
     if not is_jit():
         raise RigsimError(f"rendering needs a vectorised Mitsuba variant (llvm_ad_spectral or cuda_ad_spectral); "
                           f"only {variant()} is available — install libLLVM (e.g. `apt install libllvm19`)")
@@ -365,19 +331,10 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
         if integrator != "rigsim":
             raise ConfigError("daylight is rendered by the rigsim integrator only", field="integrator",
                               allowed="rigsim")
-        ambient = ambient_tables(scene, float(lo_edges[0]), float(wl[-1] + bw[-1] / 2), seed=seed)
-    camera_frame(scene.camera)  # validates forward/up
-    if abs(width / height - scene.camera.sensor_width_mm / scene.camera.sensor_height_mm) > 0.02 * width / height:
-        warnings.warn(f"image aspect {width}x{height} differs from the sensor's "
-                      f"{scene.camera.sensor_width_mm}x{scene.camera.sensor_height_mm} mm; "
-                      "pixels will not be square", RuntimeWarning, stacklevel=2)
+        ambient = ambient_tables(scene, req.band_lo_nm, req.band_hi_nm, seed=seed)
 
     groups = {"continuous": [l for l in scene.lights if l.kind == "continuous"],
               "strobe": [l for l in scene.lights if l.kind == "strobe"]}
-    for l in scene.lights:
-        if l.kind not in groups:
-            raise ConfigError(f"light {l.name!r}: kind must be strobe or continuous, got {l.kind!r}",
-                              field=f"lights.{l.name}.kind")
     water = scene.water is not None
     modes = ["full"]
     if water:
@@ -485,11 +442,11 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
                                                        in layers else None)),
         "water": scene.water.describe() if water else None,
         "camera": dataclasses.asdict(scene.camera),
-        "fov_water_x_deg": fov_water_deg(scene.camera),
+        "fov_water_x_deg": fov_water_deg(scene.camera, outside_index(scene)),
         "lights": [l.describe() for l in scene.lights],
         "targets": [dataclasses.asdict(t) for t in scene.targets],
         "object_ids": legend,
-        "world_radius_m": world_radius(scene),
+        "world_radius_m": world_radius_m(scene),
         "radiance_reference": "in-water radiance arriving at the port, band-averaged (no port "
                               "transmission or n^2 factor)",
         "dropped_samples": dropped,
@@ -502,4 +459,5 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
          + (("daylight",) if scene.daylight is not None else ())}, sort_keys=True,
         default=str).encode()).hexdigest()[:16]
     meta["wall_time_s"] = time.perf_counter() - t_start
-    return SpectralImage(radiance=radiance, wavelength_nm=wl, bandwidth_nm=bw, layers=out_layers, meta=meta)
+    return SpectralImage(radiance=radiance, wavelength_nm=wl, bandwidth_nm=bw, layers=out_layers, meta=meta,
+                         scene=scene, render=RenderInfo("mitsuba", seed=seed, spp=meta["spp"], integrator=integrator))

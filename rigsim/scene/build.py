@@ -21,24 +21,13 @@ from rigsim.scene.targets import (
     mesh_vertices,
     reflectance_from_csv,
 )
+from rigsim.scene.optics import port_reach_m
 from rigsim.scene.types import Daylight, Rig, Scene, Target
 from rigsim.water.model import Water
 
-__all__ = ["build_scene", "make_target", "port_reach_m"]
+__all__ = ["build_scene", "make_target"]
 
 _MESH_SUFFIXES = (".obj", ".ply")
-
-
-def port_reach_m(rig: Rig) -> float:
-    """Distance from the entrance pupil to the outer surface of the port along the axis (m).
-
-    Dome: radius + thickness (the dome is centred on the pupil); flat port:
-    standoff + thickness.
-    """
-    port = rig.camera.port
-    if port.kind == "dome":
-        return port.radius_m + port.thickness_m
-    return port.standoff_m + port.thickness_m
 
 
 def _reflectance(reflectance) -> tuple[tuple[float, ...], tuple[float, ...]]:
@@ -166,7 +155,7 @@ def build_scene(rig: Rig, water: Water | str | None, target: str | Path | Target
     if not math.isfinite(d) or d <= 0:
         raise ConfigError(f"target is behind the camera (distance {d:g} m)", field="distance_m",
                           allowed="> 0 m, in front of the port")
-    reach = port_reach_m(rig)
+    reach = port_reach_m(rig.camera)
     if tgt.kind == "bottom":
         floor = max(reach, rig.camera.housing_radius_m)
         if d <= floor:

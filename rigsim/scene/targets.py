@@ -36,12 +36,9 @@ Reflectances (Lambertian, tabulated 360–830 nm every 5 nm, :data:`REFLECTANCE_
 
 Image coordinates: pixel ``(col, row)``, origin at the top-left corner of the
 image, col to the right, row down, pixel centres at half-integers; the image's
-right is ``forward × up`` (as Mitsuba renders).  Dome ports are concentric, so
-they do not bend chief rays; a flat port refracts them air → glass → water at
-both faces of the window (standoff, thickness and glass index included — the
-same exact geometry as :mod:`rigsim.render.camera`), which narrows the view
-and adds pincushion distortion.  With no water (``scene.water is None``) the
-outside medium has index 1.
+right is ``forward × up`` (as Mitsuba renders); rays and projections through the
+port are those of :mod:`rigsim.scene.optics` (the one camera and port model), also
+without water (the clear ground truth keeps the in-water view).
 """
 
 from __future__ import annotations
@@ -75,9 +72,6 @@ __all__ = [
     "reflectance_from_csv",
     "target_surfaces",
     "target_layout",
-    "project_to_image",
-    "pixel_directions",
-    "pixel_rays",
     "mesh_vertices",
 ]
 
@@ -424,100 +418,6 @@ def mesh_vertices(path: str | Path) -> np.ndarray:
 
 # ----------------------------------------------------------------------------- image mapping
 
-def _flat_port_radius(camera: Camera, theta_a, depth, water_index: float):
-    """Radial distance from the axis at axial ``depth`` (m) of the chief ray leaving the pupil at θ_air.
-
-    The ray crosses the air gap (standoff), the glass (thickness, index n_g) and
-    then the water (n_w), refracting at both faces of the window.
-    """
-    port = camera.port
-    st = np.sin(theta_a)
-    tg = np.tan(np.arcsin(st / port.glass_index))
-    tw = np.tan(np.arcsin(st / water_index))
-    return port.standoff_m * np.tan(theta_a) + port.thickness_m * tg + (depth - port.standoff_m
-                                                                         - port.thickness_m) * tw
-
-
-def project_to_image(camera: Camera, points_m, width: int, height: int, *,
-                     water_index: float = 1.34) -> np.ndarray:
-    """Pixel coordinates ``(col, row)`` of world points (NaN where not imaged).
-
-    Parameters
-    ----------
-    camera
-        The camera (pose, lens, port).
-    points_m
-        World points, shape (..., 3).
-    width, height
-        Image size in pixels.
-    water_index
-        Refractive index of the medium outside a flat port (1 for "no water").
-
-    Notes
-    -----
-    Dome: central projection through the pupil.  Flat port: the chief ray's
-    in-air angle is found by bisection so that, refracted through the window
-    (standoff, thickness, glass index) into the water, it passes through the
-    point — the same exact geometry as the renderer's camera.
-    """
-    right, up, fwd = camera.frame()
-    d = np.asarray(points_m, float) - np.asarray(camera.position_m, float)
-    x, y, z = d @ right, d @ up, d @ fwd
-    rho = np.hypot(x, y)
-    if camera.port.kind == "flat":
-        inner = camera.port.standoff_m + camera.port.thickness_m
-        lo = np.zeros_like(rho)
-        hi = np.full_like(rho, np.radians(89.999))
-        for _ in range(64):
-            mid = 0.5 * (lo + hi)
-            too_far = _flat_port_radius(camera, mid, z, water_index) > rho
-            hi = np.where(too_far, mid, hi)
-            lo = np.where(too_far, lo, mid)
-        theta_a = np.where((z > inner) & (hi < np.radians(89.99)), 0.5 * (lo + hi), np.nan)
-    else:
-        theta_a = np.where(z > 0, np.arctan2(rho, np.where(z > 0, z, 1.0)), np.nan)
-    with np.errstate(invalid="ignore"):
-        r_mm = camera.focal_length_mm * np.tan(theta_a)
-        cphi = np.where(rho > 0, x / np.where(rho > 0, rho, 1), 1.0)
-        sphi = np.where(rho > 0, y / np.where(rho > 0, rho, 1), 0.0)
-    col = width * (0.5 + r_mm * cphi / camera.sensor_width_mm)
-    row = height * (0.5 - r_mm * sphi / camera.sensor_height_mm)
-    return np.stack([col, row], axis=-1)
-
-
-def pixel_rays(camera: Camera, width: int, height: int, *,
-               water_index: float = 1.34) -> tuple[np.ndarray, np.ndarray]:
-    """Chief rays through pixel centres, in the water: origins and unit directions, (height, width, 3).
-
-    Dome: origin at the pupil, direction unchanged.  Flat port: the ray is
-    refracted air → glass → water and starts on the window's outer face.
-    """
-    right, up, fwd = camera.frame()
-    cols = (np.arange(width) + 0.5) / width - 0.5
-    rows = 0.5 - (np.arange(height) + 0.5) / height
-    xm = cols[None, :] * camera.sensor_width_mm
-    ym = rows[:, None] * camera.sensor_height_mm
-    theta_a = np.arctan2(np.hypot(xm, ym), camera.focal_length_mm)
-    phi = np.arctan2(ym, xm)
-    radial = np.cos(phi)[..., None] * right + np.sin(phi)[..., None] * up
-    pupil = np.asarray(camera.position_m, float)
-    if camera.port.kind == "flat":
-        theta_w = np.arcsin(np.sin(theta_a) / water_index)
-        depth = camera.port.standoff_m + camera.port.thickness_m
-        r0 = _flat_port_radius(camera, theta_a, depth, water_index)
-        origins = pupil + r0[..., None] * radial + depth * fwd
-    else:
-        theta_w = theta_a
-        origins = np.broadcast_to(pupil, radial.shape).copy()
-    dirs = np.sin(theta_w)[..., None] * radial + np.cos(theta_w)[..., None] * fwd
-    return origins, dirs
-
-
-def pixel_directions(camera: Camera, width: int, height: int, *, water_index: float = 1.34) -> np.ndarray:
-    """World directions (height, width, 3) of the chief rays through pixel centres, in the water."""
-    return pixel_rays(camera, width, height, water_index=water_index)[1]
-
-
 @dataclass(frozen=True, eq=False)
 class TargetLayout:
     """Where a target lands in an image of ``width × height`` pixels.
@@ -559,8 +459,8 @@ def target_layout(scene: Scene, width: int, height: int, *, target_index: int = 
     Parameters
     ----------
     scene
-        The scene (camera and targets); with ``scene.water is None`` a flat port
-        does not refract.
+        The scene (camera and targets); the rays are the renderers' (in-water
+        geometry, also for the clear ground truth without water).
     width, height
         Image size (pixels).
     target_index
@@ -575,13 +475,13 @@ def target_layout(scene: Scene, width: int, height: int, *, target_index: int = 
     >>> bool(lay.mask("disk")[20, 30]), bool(lay.mask("disk")[0, 0])
     (True, False)
     """
-    from rigsim.water.kd import WATER_INDEX
+    from rigsim.scene.optics import outside_index, pixel_rays, project_points
 
     camera = scene.camera
     target = scene.targets[target_index]
     surfaces = target_surfaces(target, camera)
-    n_w = WATER_INDEX if scene.water is not None else 1.0
-    origin, dirs = pixel_rays(camera, width, height, water_index=n_w)
+    n_w = outside_index(scene)
+    origin, dirs = pixel_rays(camera, width, height, n_outside=n_w)[:2]
     best = np.full((height, width), np.inf)
     label = np.zeros((height, width), dtype=np.int32)
     for s in surfaces:
@@ -605,12 +505,12 @@ def target_layout(scene: Scene, width: int, height: int, *, target_index: int = 
     centers = {}
     right, up, fwd = camera.frame()
     for s in surfaces:
-        centers[s.name] = project_to_image(camera, np.asarray(s.center_m), width, height, water_index=n_w)
+        centers[s.name] = project_points(camera, np.asarray(s.center_m), width, height, n_outside=n_w)
         if s.shape == "mesh":
             continue
         pts = s.outline_m()
         if np.all((pts - np.asarray(camera.position_m, float)) @ fwd > 0):
-            px = project_to_image(camera, pts, width, height, water_index=n_w)
+            px = project_points(camera, pts, width, height, n_outside=n_w)
             if np.all(np.isfinite(px)):
                 polygons[s.name] = px
     edge = None
@@ -619,5 +519,5 @@ def target_layout(scene: Scene, width: int, height: int, *, target_index: int = 
         c, u, v = (np.asarray(x) for x in (white.center_m, white.u_axis, white.v_axis))
         ends = np.array([c - white.size_m[0] / 2 * u - white.size_m[1] / 2 * v,
                          c - white.size_m[0] / 2 * u + white.size_m[1] / 2 * v])
-        edge = project_to_image(camera, ends, width, height, water_index=n_w)
+        edge = project_points(camera, ends, width, height, n_outside=n_w)
     return TargetLayout(surfaces=surfaces, label_map=label, polygons=polygons, centers=centers, edge=edge)

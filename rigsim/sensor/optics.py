@@ -46,13 +46,19 @@ class Lens:
     transmittance
         Lens transmittance T (0–1), spectrally flat.
     vignetting
-        If True, apply natural cos⁴θ fall-off using the render's field of view
-        (``meta['fov_deg']``, horizontal, degrees); ignored if the render has none.
+        If True, apply natural cos⁴θ fall-off of the image's camera (:func:`vignetting_map`);
+        ignored, with a warning, for an image without a typed scene.
+    f_number_source
+        Where the f-number came from, for the capture record: ``"camera"`` (the image's own
+        camera, :func:`lens_for`), ``"override"`` (stated over the camera's), ``"stated"``
+        (given for an image without a camera, or built directly), ``"default …"`` (an image
+        without a camera and no f-number given).
     """
 
     f_number: float = 4.0
     transmittance: float = 0.9
     vignetting: bool = False
+    f_number_source: str = "stated"
 
     def __post_init__(self):
         if not (np.isfinite(self.f_number) and self.f_number >= 0.5):
@@ -66,29 +72,6 @@ class Lens:
 def irradiance_factor(lens: Lens) -> float:
     """π·T/(4N²): focal-plane irradiance per unit scene radiance (sr)."""
     return np.pi * lens.transmittance / (4.0 * lens.f_number ** 2)
-
-
-def cos4_map(shape: tuple[int, int], fov_deg: float) -> np.ndarray:
-    """cos⁴θ natural vignetting over an image of ``shape`` with horizontal FOV ``fov_deg``.
-
-    Parameters
-    ----------
-    shape
-        (rows, cols).
-    fov_deg
-        Horizontal field of view (degrees, 0–179).
-
-    Returns
-    -------
-    ndarray
-        (rows, cols) float32, 1 on axis.
-    """
-    rows, cols = shape
-    f_px = (cols / 2.0) / np.tan(np.radians(fov_deg) / 2.0)
-    y = (np.arange(rows) - (rows - 1) / 2.0)[:, None]
-    x = (np.arange(cols) - (cols - 1) / 2.0)[None, :]
-    cos2 = f_px ** 2 / (f_px ** 2 + x ** 2 + y ** 2)
-    return (cos2 * cos2).astype(np.float32)
 
 
 def electrons_per_radiance(wavelength_nm, bandwidth_nm, qe, *, lens: Lens, pixel_area_m2: float,
@@ -129,28 +112,59 @@ def photons_per_pixel(radiance, wavelength_nm, bandwidth_nm, *, lens: Lens, pixe
     return np.asarray(radiance, float) * m[:, 0]
 
 
-def port_radiance_factor(meta: dict | None) -> float:
-    """Factor from the in-water radiance a render reports to the radiance in air behind the port.
+def port_factor_map(spectral_image) -> np.ndarray | float:
+    """Radiance in air behind the port per unit in-water radiance the image reports, per pixel.
 
-    The basic radiance L/n² is conserved along a ray through lossless interfaces
-    (radiance theorem; e.g. Mobley, *Light and Water* 1994, §4.3), so the housing's air
-    side sees ``L_air = T_port · L_water / n_water²`` — for a dome or a flat port alike
-    (the dome changes where the image forms, not its radiance).  T_port is the Fresnel
-    transmittance at normal incidence of the water→glass and glass→air surfaces,
-    ``(1 − R₁)(1 − R₂)`` with ``R = ((n₁ − n₂)/(n₁ + n₂))²``; glass absorption is neglected.
+    ``T_port / n_w²`` at each pixel centre (:func:`rigsim.scene.optics.air_radiance_factor`:
+    the n² law of radiance and the port's Fresnel transmittance at the ray's angles) for an
+    image whose typed scene (:attr:`~rigsim.spectral_image.SpectralImage.scene`) has water;
+    1 for anything else (the clear ground truth without water, real photographs, synthetic
+    images without a scene).
 
-    Renders whose ``meta['radiance_reference']`` says the radiance is in water and that
-    have water (``meta['water']``) get this factor; anything else (renders without water,
-    real photographs) gets 1.
+    Returns
+    -------
+    ndarray or float
+        (rows, cols) factors, or the scalar 1.
     """
-    meta = meta or {}
-    if not str(meta.get("radiance_reference", "")).startswith("in-water") or not meta.get("water"):
+    scene = getattr(spectral_image, "scene", None)
+    if scene is None or scene.water is None:
         return 1.0
-    from rigsim.water.kd import WATER_INDEX
+    from rigsim.scene.optics import air_radiance_factor, outside_index
 
-    port = (meta.get("camera") or {}).get("port") or {}
-    ng = float(port.get("glass_index", 1.49))
-    nw = WATER_INDEX
-    r1 = ((nw - ng) / (nw + ng)) ** 2
-    r2 = ((ng - 1.0) / (ng + 1.0)) ** 2
-    return (1 - r1) * (1 - r2) / nw**2
+    rows, cols = np.shape(spectral_image.radiance)[:2]
+    px, py = np.meshgrid((np.arange(cols) + 0.5) / cols, (np.arange(rows) + 0.5) / rows)
+    return air_radiance_factor(scene.camera, px, py, n_outside=outside_index(scene))
+
+
+def vignetting_map(spectral_image) -> np.ndarray | None:
+    """cos⁴θ natural vignetting (rows, cols) of the image's camera, θ the chief ray's angle in air
+    behind the port (from the sensor size and focal length); None without a typed scene."""
+    scene = getattr(spectral_image, "scene", None)
+    if scene is None:
+        return None
+    from rigsim.scene.optics import tan_half_fov
+
+    rows, cols = np.shape(spectral_image.radiance)[:2]
+    tx, ty = tan_half_fov(scene.camera)
+    x = (2.0 * (np.arange(cols) + 0.5) / cols - 1.0)[None, :] * tx
+    y = (1.0 - 2.0 * (np.arange(rows) + 0.5) / rows)[:, None] * ty
+    cos2 = 1.0 / (1.0 + x * x + y * y)
+    return (cos2 * cos2).astype(np.float32)
+
+
+def lens_for(spectral_image, *, f_number: float | None = None, transmittance: float = 0.9,
+             vignetting: bool = False) -> Lens:
+    """The lens that took ``spectral_image``: its camera's f-number unless ``f_number`` overrides it.
+
+    An image without a typed scene (a synthetic or foreign image) gets ``f_number`` or, if that
+    is None too, the :class:`Lens` default (f/4), and says so in ``f_number_source``.
+    """
+    scene = getattr(spectral_image, "scene", None)
+    if f_number is None:
+        if scene is None:
+            return Lens(transmittance=transmittance, vignetting=vignetting,
+                        f_number_source="default (the image has no camera of its own)")
+        return Lens(f_number=float(scene.camera.f_number), transmittance=transmittance, vignetting=vignetting,
+                    f_number_source="camera")
+    return Lens(f_number=float(f_number), transmittance=transmittance, vignetting=vignetting,
+                f_number_source="override" if scene is not None else "stated")

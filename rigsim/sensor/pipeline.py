@@ -23,7 +23,7 @@ from rigsim.sensor.ccm import ccm_ColorChecker
 from rigsim.sensor.demosaic import demosaic as _demosaic
 from rigsim.sensor.model import Sensor
 from rigsim.sensor.noise import NoiseSwitches, digitise_emva1288, electrons_emva1288
-from rigsim.sensor.optics import Lens, cos4_map, electrons_per_radiance, port_radiance_factor
+from rigsim.sensor.optics import Lens, electrons_per_radiance, port_factor_map, vignetting_map
 from rigsim.sensor.white_balance import white_balance_gains
 
 log = logging.getLogger(__name__)
@@ -67,7 +67,8 @@ class Exposure:
 
     def describe(self) -> dict:
         return {"exposure_time_s": self.exposure_time_s, "iso": self.iso,
-                "f_number": self.lens.f_number, "lens_transmittance": self.lens.transmittance,
+                "f_number": self.lens.f_number, "f_number_source": self.lens.f_number_source,
+                "lens_transmittance": self.lens.transmittance,
                 "vignetting": self.lens.vignetting, "temperature_c": self.temperature_c,
                 "flash_scale": self.flash_scale}
 
@@ -213,10 +214,10 @@ def mean_electrons_rgb(spectral_image, sensor: Sensor, exposure: Exposure) -> np
     """(rows, cols, 3) float32 mean photo-electrons per pixel if each pixel had each CFA filter.
 
     Camera equation (see :mod:`rigsim.sensor.optics`) with the sensor's pixel area and the
-    housing port (:func:`~rigsim.sensor.optics.port_radiance_factor`), applied to the radiant
-    exposure: continuous radiance × shutter time plus ``flash_scale`` × the
-    render's ``flash`` layer (strobes).  cos⁴ vignetting if ``exposure.lens.vignetting`` and
-    the render states its field of view (``meta['fov_water_x_deg']`` or ``meta['fov_deg']``).
+    housing port (:func:`~rigsim.sensor.optics.port_factor_map`, from the image's typed scene),
+    applied to the radiant exposure: continuous radiance × shutter time plus ``flash_scale`` × the
+    render's ``flash`` layer (strobes).  cos⁴ vignetting of the image's camera if
+    ``exposure.lens.vignetting`` (:func:`~rigsim.sensor.optics.vignetting_map`).
     """
     si = spectral_image
     e = _electrons_parts(si, sensor, exposure)
@@ -228,24 +229,23 @@ def _electrons_parts(si, sensor: Sensor, exposure: Exposure) -> tuple[np.ndarray
     qe = sensor.qe_at(si.wavelength_nm)
     m = electrons_per_radiance(si.wavelength_nm, si.bandwidth_nm, qe, lens=exposure.lens,
                                pixel_area_m2=sensor.pixel_area_m2, exposure_time_s=1.0)
-    m = m * port_radiance_factor(si.meta)  # in-water radiance → radiance in air behind the port
     rows, cols, nb = np.shape(si.radiance)
+    port = port_factor_map(si)  # in-water radiance → radiance in air behind the port, per pixel
+    if exposure.lens.vignetting:
+        v = vignetting_map(si)
+        if v is None:
+            log.warning("vignetting asked for but the image has no camera of its own; not applied")
+        else:
+            port = port * v
+    port = np.asarray(port, np.float32)
 
     def apply(layer):
         if layer is None:
             return np.zeros((rows, cols, 3), np.float32)
-        return (np.asarray(layer).reshape(-1, nb).astype(np.float64) @ m).reshape(rows, cols, 3).astype(np.float32)
+        e = (np.asarray(layer).reshape(-1, nb).astype(np.float64) @ m).reshape(rows, cols, 3).astype(np.float32)
+        return e * port[..., None] if port.ndim else e * port
 
     cont, flash = apply(si.radiance), apply(si.layers.get("flash"))
-    if exposure.lens.vignetting:
-        meta = si.meta or {}
-        fov = meta.get("fov_water_x_deg", meta.get("fov_deg"))
-        if fov is not None:
-            v = cos4_map((rows, cols), float(fov))[..., None]
-            cont *= v
-            flash *= v
-        else:
-            log.warning("vignetting asked for but the render states no field of view; not applied")
     return cont, flash
 
 

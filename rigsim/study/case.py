@@ -37,7 +37,7 @@ def compute_case(spec: StudySpec, case: Case) -> dict:
     from rigsim.metrics.scene import scene_metrics, target_masks
     from rigsim.scene.build import build_scene
     from rigsim.sensor import load_sensor
-    from rigsim.sensor.optics import Lens
+    from rigsim.sensor.optics import lens_for
     from rigsim.sensor.pipeline import DevelopOptions, Exposure, auto_exposure, capture
 
     rig = load_rig(case.rig)
@@ -45,7 +45,7 @@ def compute_case(spec: StudySpec, case: Case) -> dict:
     target_kind = case.target if not case.target.lower().endswith((".obj", ".ply")) else "mesh"
     size_m = None
     if case.target_fill is not None:
-        from rigsim.render.camera import fov_water_deg
+        from rigsim.scene.optics import fov_water_deg
 
         size_m = case.target_fill * 2 * case.distance_m * np.tan(np.radians(fov_water_deg(rig.camera)) / 2)
     daylight = None
@@ -82,7 +82,7 @@ def compute_case(spec: StudySpec, case: Case) -> dict:
     rows = []
     for sname in spec.sensors:
         sensor = load_sensor(sname)
-        lens = Lens(f_number=rig.camera.f_number)
+        lens = lens_for(si)
         cs = spec.capture
         if cs.exposure == "auto":
             # spot-meter the chart (its white patch lands at the target level); whole frame otherwise

@@ -207,7 +207,7 @@ def image_size(rig: Rig, width: int) -> tuple[int, int]:
 
 
 def _scene(rig: Rig, cond: Conditions, distance_m: float | None = None, fill: float | None = None):
-    from rigsim.render.camera import fov_water_deg
+    from rigsim.scene.optics import fov_water_deg
     from rigsim.scene.build import build_scene
 
     if cond.target not in TARGETS:
@@ -236,11 +236,11 @@ def measure(si, target_kind: str, *, cap=None, sensor=None, exposure=None) -> tu
 
 def _develop(si, rig: Rig, cond: Conditions, masks: dict, seed: int):
     from rigsim.sensor import load_sensor
-    from rigsim.sensor.optics import Lens
+    from rigsim.sensor.optics import lens_for
     from rigsim.sensor.pipeline import DevelopOptions, Exposure, auto_exposure, capture
 
     sensor = load_sensor(cond.sensor)
-    lens = Lens(f_number=rig.camera.f_number)
+    lens = lens_for(si)
     if cond.exposure == "auto":
         meter = masks.get("target") if cond.target == "colorchecker" else None
         ex = auto_exposure(si, sensor, lens=lens, mask=meter)
@@ -303,7 +303,7 @@ def contrast_curve(rig: Rig, cond: Conditions, distances_m: Sequence[float], *,
     -------
     list of ``{"distance_m", "contrast_radiance", "backscatter_share"}``
     """
-    from rigsim.scene.build import port_reach_m
+    from rigsim.scene.optics import port_reach_m
 
     engine, fn = preview_engine(CURVE)
     fill = cond.target_fill if cond.target_fill is not None else 0.5
@@ -312,7 +312,7 @@ def contrast_curve(rig: Rig, cond: Conditions, distances_m: Sequence[float], *,
     for d in distances_m:
         if should_stop is not None and should_stop():
             break
-        if d <= port_reach_m(rig) + 0.02:
+        if d <= port_reach_m(rig.camera) + 0.02:
             continue
         si = fn(_scene(rig, cond, d, fill), w, h, CURVE.wavelengths_nm, None)
         m, _ = measure(si, cond.target)

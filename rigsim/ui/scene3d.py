@@ -119,7 +119,7 @@ def scene_parts(scene: Scene, *, water_rgb: tuple[float, float, float] | None = 
     """The named parts of the 3-D view (see the module docstring)."""
     import pyvista as pv
 
-    from rigsim.render.camera import fov_water_deg
+    from rigsim.scene.optics import fov_water_deg
     from rigsim.scene.targets import target_surfaces
 
     cam = scene.camera

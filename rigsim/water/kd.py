@@ -13,11 +13,9 @@ from __future__ import annotations
 import numpy as np
 
 from rigsim.errors import ConfigError, unknown_name_error
+from rigsim.water.refraction import WATER_INDEX
 
 __all__ = ["kd_Lee2005", "kd_Gordon1989", "KD_METHODS", "kd", "refracted_zenith_deg"]
-
-#: Refractive index of sea water used for the sun's refraction at the surface.
-WATER_INDEX = 1.34
 
 
 def refracted_zenith_deg(sun_zenith_deg: float, n_water: float = WATER_INDEX) -> float:

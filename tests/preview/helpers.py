@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from rigsim.preview.geometry import camera_rays, cast_rays, scene_surfaces
+from rigsim.preview.geometry import cast_rays, scene_surfaces
+from rigsim.scene.optics import camera_rays, outside_index
 from rigsim.scene.types import BeamPattern, Camera, Light, Port, Rig, Scene, Target
-from rigsim.water.kd import WATER_INDEX
 from rigsim.water.model import Spectrum1D, TabulatedWater
 from rigsim.water.phase import HenyeyGreenstein
 
@@ -128,7 +128,7 @@ def interior_ids(scene: Scene, width: int, height: int, n: int = 4) -> np.ndarra
     PX = (np.arange(width)[:, None] + g[None, :]).ravel() / width
     PY = (np.arange(height)[:, None] + g[None, :]).ravel() / height
     X, Y = np.meshgrid(PX, PY)
-    o, d = camera_rays(scene.camera, X, Y, n_water=WATER_INDEX)
+    o, d = camera_rays(scene.camera, X, Y, n_outside=outside_index(scene))
     _, oid = cast_rays(surf, o, d)
     oid = oid.reshape(height, n, width, n)
     first = oid[:, :1, :, :1]

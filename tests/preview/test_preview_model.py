@@ -11,7 +11,7 @@ import pytest
 from rigsim.errors import ConfigError
 from rigsim.preview import PREVIEW_LAYERS, RENDERER_NAME, render_preview
 from rigsim.preview.forward import SmallAngle
-from rigsim.preview.phase import phase_components
+from rigsim.scene.phase_tables import phase_tables
 from rigsim.scene.types import BeamPattern, Daylight, Rig, Scene, Target
 from rigsim.spectral_image import SpectralImage
 from rigsim.water import preset
@@ -176,9 +176,9 @@ def test_shadows_darken_what_is_hidden_from_a_light():
 # --------------------------------------------------------------------------- small-angle machinery
 def test_small_angle_kernel_is_normalised_and_conserves_energy():
     water = preset("coastal")
-    comps = phase_components(water.phase, water.wavelength_range_nm)
+    comps = phase_tables(water.phase, water.wavelength_range_nm)
     wl = np.array(WL)
-    sa = SmallAngle(comps, np.pi / 2, water.b_per_m(wl), comps.weights(wl))
+    sa = SmallAngle(comps, np.pi / 2, water.b_per_m(wl), comps.weights_at(wl))
     assert np.allclose(sa.q(np.array([0.0]))[0], sa.F)
     np.testing.assert_allclose(sa.F, 1 - water.phase.backscatter_fraction(wl), rtol=1e-6)
     assert np.allclose(sa.kernel(np.array([0.0]), sa.b * 2.0)[0], 1.0)
@@ -195,12 +195,12 @@ def test_small_angle_kernel_is_normalised_and_conserves_energy():
     assert np.all(narrow[32, 32] < 1.0) and np.all(narrow[10, 10] > 0)
 
 
-def test_phase_components_reproduce_the_water_phase_function():
+def test_phase_tables_reproduce_the_water_phase_function():
     water = preset("coastal")
-    comps = phase_components(water.phase, water.wavelength_range_nm)
+    comps = phase_tables(water.phase, water.wavelength_range_nm)
     mu = np.cos(np.radians([0.05, 1.0, 10.0, 60.0, 120.0, 175.0]))
     for lam in WL:
-        val = comps.eval_components(mu) @ comps.weights([lam])[0]
+        val = comps.eval_components(mu) @ comps.weights_at([lam])[0]
         np.testing.assert_allclose(val, water.phase.eval(mu, lam), rtol=2e-3)
 
 

@@ -17,11 +17,9 @@ import pytest
 pytest.importorskip("mitsuba")
 
 from rigsim.preview import render_preview  # noqa: E402
-from rigsim.preview.geometry import camera_rays  # noqa: E402
 from rigsim.render import render  # noqa: E402
-from rigsim.render.camera import generate_rays  # noqa: E402
 from rigsim.render.variant import mitsuba  # noqa: E402
-from rigsim.scene.types import BeamPattern, Camera, Port  # noqa: E402
+from rigsim.scene.types import BeamPattern  # noqa: E402
 from rigsim.water import preset  # noqa: E402
 from tests.preview.helpers import disk_scene, dome_camera, interior_ids, make_light  # noqa: E402
 
@@ -84,16 +82,3 @@ def test_geometry_layers_identical_to_the_renderer():
     for k in ref.layers:
         assert prev.layers[k].dtype == ref.layers[k].dtype and prev.layers[k].shape == ref.layers[k].shape
     assert prev.meta["fov_water_x_deg"] == pytest.approx(ref.meta["fov_water_x_deg"])
-
-
-@pytest.mark.parametrize("port", [Port(kind="flat", standoff_m=0.03, thickness_m=0.01, glass_index=1.52),
-                                  Port(kind="dome", radius_m=0.1, thickness_m=0.008)])
-def test_camera_rays_are_the_renderers(port):
-    cam = Camera(focal_length_mm=14.0, forward=(0.2, -0.1, 1.0), up=(0.0, 1.0, 0.1), position_m=(0.1, -0.2, 0.3),
-                 port=port)
-    px = np.array([0.0, 0.13, 0.5, 0.92, 1.0])
-    py = np.array([0.5, 0.9, 0.5, 0.02, 1.0])
-    o, d = camera_rays(cam, px, py, n_water=1.34)
-    o_r, d_r = generate_rays(cam, mi.Float(px), mi.Float(py), 30, 20)
-    np.testing.assert_allclose(o, np.array(o_r, float).T, atol=2e-6)
-    np.testing.assert_allclose(d, np.array(d_r, float).T, atol=2e-6)

@@ -9,7 +9,7 @@ from rigsim.scene.types import BeamPattern, Camera, Light, Port, Rig, Scene, Tar
 
 pytest.importorskip("mitsuba")
 
-from rigsim.render.camera import camera_frame, generate_rays
+from rigsim.scene.optics import camera_rays, outside_index
 from rigsim.render.variant import mitsuba
 
 mi, dr = mitsuba()
@@ -52,13 +52,12 @@ def reference_direct(scene: Scene, width: int, height: int, wavelength_nm, bandw
     """
     cam = scene.camera
     t = scene.targets[0]
-    f, r, u = camera_frame(cam)
+    r, u, f = cam.frame()
     g = (np.arange(sub) + 0.5) / sub
     cols = (np.arange(width)[:, None] + g[None, :]).ravel() / width
     rows = (np.arange(height)[:, None] + g[None, :]).ravel() / height
     PX, PY = np.meshgrid(cols, rows)
-    o, d = generate_rays(cam, mi.Float(PX.ravel()), mi.Float(PY.ravel()), width, height)
-    o, d = np.array(o, float).T, np.array(d, float).T
+    o, d = camera_rays(cam, PX.ravel(), PY.ravel(), n_outside=outside_index(scene))
     centre = np.asarray(cam.position_m) + t.distance_m * f
     n = -f
     tt = ((centre - o) @ n) / (d @ n)

@@ -20,17 +20,16 @@ import numpy as np
 import pytest
 
 from rigsim.errors import ConfigError
-from rigsim.render.integrator import (
+from rigsim.render.integrators import (
     PLUGIN_NAME,
     RigsimVolIntegrator,
-    _Segment,
-    AureoleTable,
-    PhaseAngleTable,
     integrator_dict,
     sample_target_point,
     target_table,
     with_integrator,
 )
+from rigsim.render.integrators.common import AureoleTable, PhaseAngleTable
+from rigsim.render.integrators.common import Segment as _Segment
 from rigsim.render.mitsuba_scene import build_mitsuba_scene
 from rigsim.render.renderer import band_edges, render_pass
 from rigsim.render.variant import mitsuba

@@ -6,7 +6,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from rigsim.render.phase_plugin import DEFENSIVE_FRACTION, make_phase, phase_tables
+from rigsim.render.phase_plugin import DEFENSIVE_FRACTION, make_phase
+from rigsim.scene.phase_tables import phase_tables
 from rigsim.render.variant import mitsuba
 from rigsim.water import preset
 from rigsim.water.phase import (

@@ -7,7 +7,8 @@ import pytest
 
 from rigsim.config import load_rig
 from rigsim.errors import ConfigError
-from rigsim.scene.build import build_scene, make_target, port_reach_m
+from rigsim.scene.build import build_scene, make_target
+from rigsim.scene.optics import port_reach_m
 from rigsim.scene.targets import REFLECTANCE_WAVELENGTHS_NM, TARGET_KINDS, target_surfaces
 from rigsim.scene.types import Camera, Port, Rig, Scene, Target
 
@@ -47,13 +48,13 @@ def test_target_behind_camera(rig, d):
 
 
 def test_target_inside_port(rig):
-    reach = port_reach_m(rig)
+    reach = port_reach_m(rig.camera)
     assert reach == pytest.approx(0.108)
     with pytest.raises(ConfigError, match="closer than the port") as e:
         build_scene(rig, None, "white-disk", 0.1)
     assert "0.108" in str(e.value)
     flat = Rig(name="f", camera=Camera(port=Port(kind="flat", standoff_m=0.03, thickness_m=0.01)))
-    assert port_reach_m(flat) == pytest.approx(0.04)
+    assert port_reach_m(flat.camera) == pytest.approx(0.04)
     build_scene(flat, None, "white-disk", 0.05)
     with pytest.raises(ConfigError, match="closer than the port"):
         build_scene(flat, None, "white-disk", 0.035)

@@ -8,13 +8,12 @@ from rigsim.scene.targets import (
     COLORCHECKER_HEIGHT_M,
     COLORCHECKER_WIDTH_M,
     REFLECTANCE_WAVELENGTHS_NM,
-    pixel_rays,
-    project_to_image,
     reflectance_colorchecker_Ohta,
     reflectance_sand_assumed,
     target_layout,
     target_surfaces,
 )
+from rigsim.scene.optics import pixel_rays, project_points
 from rigsim.scene.types import Camera, Port, Rig
 
 
@@ -93,8 +92,8 @@ def test_layout_disk_area(rig):
 def test_flat_port_narrows_view_in_water():
     thin = Camera(focal_length_mm=24.0, port=Port(kind="flat", standoff_m=0.0, thickness_m=0.0))
     p = np.array([[0.3, 0.0, 1.0]])
-    air = project_to_image(thin, p, 360, 240, water_index=1.0)
-    water = project_to_image(thin, p, 360, 240, water_index=1.34)
+    air = project_points(thin, p, 360, 240, n_outside=1.0)
+    water = project_points(thin, p, 360, 240, n_outside=1.34)
     # image right is -x, so +x lands left of centre; in water it is further from the centre (magnified)
     assert air[0, 0] < 180 and water[0, 0] < air[0, 0]
     assert 180 - air[0, 0] == pytest.approx(360 / 36 * 24 * 0.3, rel=1e-9)
@@ -106,10 +105,10 @@ def test_flat_port_narrows_view_in_water():
 def test_pixel_rays_and_projection_agree(kind):
     cam = Camera(focal_length_mm=16.0, forward=(0.2, -0.3, 1.0),
                  port=Port(kind=kind, standoff_m=0.03, thickness_m=0.012, glass_index=1.52))
-    origins, dirs = pixel_rays(cam, 48, 32, water_index=1.34)
+    origins, dirs = pixel_rays(cam, 48, 32, n_outside=1.34)[:2]
     assert np.allclose(np.linalg.norm(dirs, axis=-1), 1.0)
     pts = origins + 2.5 * dirs
-    px = project_to_image(cam, pts, 48, 32, water_index=1.34)
+    px = project_points(cam, pts, 48, 32, n_outside=1.34)
     cols, rows = np.meshgrid(np.arange(48) + 0.5, np.arange(32) + 0.5)
     assert np.max(np.abs(px[..., 0] - cols)) < 1e-6 and np.max(np.abs(px[..., 1] - rows)) < 1e-6
 

@@ -71,19 +71,23 @@ def test_snr_emva1288_limits():
     assert snr_emva1288(1e-3, s, iso=100, exposure_time_s=1e-6) == pytest.approx(1e-3 / sd, rel=0.05)
 
 
-def test_port_radiance_factor():
-    from rigsim.sensor.optics import port_radiance_factor
+def test_port_factor_from_the_typed_scene():
+    import dataclasses
 
-    meta = {"radiance_reference": "in-water radiance arriving at the port", "water": {"name": "clear"},
-            "camera": {"port": {"glass_index": 1.49}}}
-    r1 = ((1.34 - 1.49) / (1.34 + 1.49)) ** 2
-    r2 = (0.49 / 2.49) ** 2
-    assert port_radiance_factor(meta) == pytest.approx((1 - r1) * (1 - r2) / 1.34**2)
-    assert port_radiance_factor({**meta, "water": None}) == 1.0
-    assert port_radiance_factor({}) == 1.0
+    from rigsim.scene.types import Camera, Port, Rig, Scene
+    from rigsim.sensor.optics import port_factor_map
+    from rigsim.water import preset
+
+    scene = Scene(Rig("r", Camera(port=Port(kind="dome", glass_index=1.49))), preset("clear"), ())
     s = load_sensor("sony_ilce-7rm2")
     si = _si(0.0, 1e-4)
+    si_w = dataclasses.replace(si, scene=scene)
+    r1 = ((1.34 - 1.49) / (1.34 + 1.49)) ** 2
+    r2 = (0.49 / 2.49) ** 2
+    factor = port_factor_map(si_w)
+    np.testing.assert_allclose(factor, (1 - r1) * (1 - r2) / 1.34**2, rtol=1e-12)  # a dome: every pixel
+    assert port_factor_map(dataclasses.replace(si, scene=dataclasses.replace(scene, water=None))) == 1.0
+    assert port_factor_map(si) == 1.0
     e_air = mean_electrons_rgb(si, s, Exposure(0.01, 100))
-    si_w = SpectralImage(si.radiance, si.wavelength_nm, si.bandwidth_nm, si.layers, meta)
-    np.testing.assert_allclose(mean_electrons_rgb(si_w, s, Exposure(0.01, 100)), e_air * port_radiance_factor(meta),
+    np.testing.assert_allclose(mean_electrons_rgb(si_w, s, Exposure(0.01, 100)), e_air * factor[..., None],
                                rtol=1e-5)

@@ -125,7 +125,11 @@ def test_full_well_clipping():
 
 def test_vignetting_cos4_and_resampling():
     s = load_sensor("sony_ilce-7rm2")
-    si = SpectralImage(np.full((41, 61, len(WL)), 1e-3), WL, BW, meta={"fov_deg": 90.0})
+    from rigsim.scene.types import Camera, Rig, Scene
+
+    # 90° horizontal field of view in air, square pixels (sensor height to the image's aspect)
+    cam = Camera(sensor_width_mm=36.0, sensor_height_mm=36.0 * 41 / 61, focal_length_mm=18.0)
+    si = SpectralImage(np.full((41, 61, len(WL)), 1e-3), WL, BW, scene=Scene(Rig("r", cam), None, ()))
     ex = Exposure(0.01, 100, Lens(4.0, vignetting=True))
     cap = capture(si, s, ex, noise=NoiseSwitches.off(), develop=None)
     g = cap.electrons

@@ -120,7 +120,9 @@ estimation), ``L_ind`` everything else.
   (1: nothing, since lights cannot be seen; 2: single scattering / direct light).
 
 Every light is connected at every vertex (no random light choice): rigsim passes
-hold one to a few lights.
+hold one to a few lights.  Daylight (:class:`~rigsim.render.daylight.AmbientTables`, via
+:meth:`RigsimVolIntegrator.set_ambient`) is added by the daylight integrator
+(:mod:`rigsim.render.integrators.daylight`), which this one runs on the same camera ray.
 
 Scenes it accepts (checked, :class:`~rigsim.errors.ConfigError` otherwise)
 ----------------------------------------------------------------------------
@@ -144,7 +146,7 @@ Monte Carlo rendering. *SIGGRAPH '95*, 419–428.
 
 Examples
 --------
->>> from rigsim.render.integrator import PLUGIN_NAME
+>>> from rigsim.render.integrators import PLUGIN_NAME
 >>> PLUGIN_NAME
 'rigsim_vol'
 
@@ -153,23 +155,36 @@ In a scene dict: ``"integrator": {"type": "rigsim_vol", "max_depth": -1, "rr_dep
 
 from __future__ import annotations
 
-import dataclasses
-
 from rigsim.errors import ConfigError
+from rigsim.render.integrators.common import (
+    MIS_HEURISTICS,
+    T_CAP_OPTICAL_DEPTH,
+    Segment,
+    aureole_table,
+    channel,
+    cone_pdf,
+    cone_sample,
+    connect_light,
+    dot4,
+    medium_interaction,
+    mis_weight,
+    mis_weight_over_pdf,
+    phase_angle_table,
+    reflects,
+    russian_roulette,
+    sample_target_point,
+    target_table,
+    water_phase,
+)
 from rigsim.render.variant import mitsuba
 
-__all__ = ["RigsimVolIntegrator", "PLUGIN_NAME", "INTEGRATORS", "integrator_dict", "with_integrator",
-           "equiangular_sample", "equiangular_pdf", "sample_target_point", "target_table",
-           "T_CAP_OPTICAL_DEPTH"]
+__all__ = ["RigsimVolIntegrator", "PLUGIN_NAME"]
 
 mi, dr = mitsuba()
 
 #: Name under which the integrator is registered with Mitsuba.
 PLUGIN_NAME = "rigsim_vol"
-#: Integrators ``rigsim render --integrator`` can choose: name → Mitsuba plugin.
-INTEGRATORS = {"rigsim": PLUGIN_NAME, "volpath": "volpath"}
-#: Equiangular samples stop at this optical depth of the least attenuated wavelength.
-T_CAP_OPTICAL_DEPTH = 30.0
+
 #: Share of equiangular samples whose angle is drawn from the phase function (the rest: uniform).
 DEFAULT_PHASE_WEIGHTED = 0.75
 #: Share of scattered directions drawn around the lights (density ∝ 1/angle), the rest from the phase function.
@@ -192,343 +207,6 @@ DEFAULT_EQUIANGULAR_VERTEX = 0.2
 #: The same share on camera rays (they seldom pass close to a light; the distance technique
 #: alone keeps every camera sample that reaches a target).
 DEFAULT_EQUIANGULAR_VERTEX_CAMERA = 0.0
-#: Smallest distance of a light from a ray line used by equiangular sampling (m).
-_D_MIN = 1e-6
-
-
-def integrator_dict(name: str = "rigsim", *, max_depth: int = -1, rr_depth: int = 5,
-                    backscatter_aov: bool = False) -> dict:
-    """Mitsuba dict of integrator ``name`` (a key of :data:`INTEGRATORS`).
-
-    ``backscatter_aov`` (rigsim only): the integrator also returns the backscatter estimate
-    of each path as AOVs (see :meth:`RigsimVolIntegrator.aov_names`).
-    """
-    if name not in INTEGRATORS:
-        raise ConfigError(f"unknown integrator {name!r}", field="integrator", allowed=", ".join(INTEGRATORS))
-    d = {"type": INTEGRATORS[name], "max_depth": int(max_depth), "rr_depth": int(rr_depth)}
-    if backscatter_aov:
-        if name != "rigsim":
-            raise ConfigError("only the rigsim integrator returns backscatter AOVs", field="integrator",
-                              allowed="rigsim")
-        d["backscatter_aov"] = True
-    return d
-
-
-def with_integrator(ms, integrator):
-    """The same loaded scene with another integrator (a :class:`MitsubaScene` copy).
-
-    ``integrator`` is a Mitsuba dict, a name of :data:`INTEGRATORS` or an integrator
-    object.  The shapes and emitters (with their BSDFs and media) are reused, not
-    rebuilt; shape ids are kept.
-    """
-    if isinstance(integrator, str):
-        integrator = integrator_dict(integrator)
-    d = {"type": "scene", "integrator": integrator}
-    for i, sh in enumerate(ms.scene.shapes()):
-        d[sh.id() or f"shape{i}"] = sh
-    for i, e in enumerate(ms.scene.emitters()):
-        d[f"emitter{i}"] = e
-    return dataclasses.replace(ms, scene=mi.load_dict(d, optimize=False))
-
-
-# ---------------------------------------------------------------------------------------
-# Equiangular sampling (Kulla & Fajardo 2012), optionally phase-weighted
-# ---------------------------------------------------------------------------------------
-def _equiangular_frame(o, d, p_light, t_max):
-    delta = dr.dot(p_light - o, d)
-    D = dr.maximum(dr.norm(p_light - (o + d * delta)), _D_MIN)
-    th_a = dr.atan2(-delta, D)
-    th_b = dr.atan2(t_max - delta, D)
-    return delta, D, th_a, th_b
-
-
-def equiangular_sample(o, d, p_light, t_max, u):
-    """Distance ``t ∈ [0, t_max]`` along ``o + t d`` with density ∝ 1/(distance to the light)².
-
-    Parameters
-    ----------
-    o, d
-        Ray origin and unit direction.
-    p_light
-        Light position.
-    t_max
-        End of the segment (finite, ≥ 0).
-    u
-        Uniform number in [0, 1).
-
-    Returns
-    -------
-    (t, pdf)
-        The distance (m) and its density (1/m), ``D / ((θ_b − θ_a)(D² + (t − Δ)²))``.
-    """
-    delta, D, th_a, th_b = _equiangular_frame(o, d, p_light, t_max)
-    dth = th_b - th_a
-    th = dr.fma(u, dth, th_a)
-    s, c = dr.sincos(th)
-    t = dr.clip(delta + D * s / c, 0.0, t_max)
-    # D² + (t − Δ)² = D²/cos² θ
-    pdf = dr.select(dth > 0, c * c / (D * dth), 0.0)
-    return t, pdf
-
-
-def equiangular_pdf(o, d, p_light, t_max, t):
-    """Density of :func:`equiangular_sample` at ``t`` (0 outside [0, t_max])."""
-    delta, D, th_a, th_b = _equiangular_frame(o, d, p_light, t_max)
-    dth = th_b - th_a
-    x = t - delta
-    pdf = D / (dth * (D * D + x * x))
-    return dr.select((dth > 0) & (t >= 0) & (t <= t_max), pdf, 0.0)
-
-
-def _cell_densities(phase):
-    """ψ cell edges (rad, 0…π) of a rigsim water phase plugin and each component's realised
-    density per steradian in each cell, shape (K, cells)."""
-    import numpy as np
-
-    psi = np.asarray(phase.tables.grid.psi_edges, np.float64).copy()
-    psi[0], psi[-1] = 0.0, np.pi
-    v = 2.0 * np.sin(psi / 2.0) ** 2
-    v[0], v[-1] = 0.0, 2.0
-    omega = 2.0 * np.pi * np.diff(v)
-    return psi, np.asarray(phase.realised_masses, np.float64)[:phase.K] / omega[None, :]
-
-
-class PhaseAngleTable:
-    """The water phase function as a density in the scattering angle ψ (per radian).
-
-    Along a ray passing a point light at distance ``D``, the equiangular angle θ
-    (``t = Δ + D tan θ``) and the single-scattering angle ψ toward the ray's origin
-    are related by ``ψ = θ + π/2``; the light scattered at ``x(t)`` is
-    ``∝ p(ψ)/r²`` and ``dt = r²/D dθ``, so in θ the integrand is the phase function
-    itself, ``p(θ + π/2)/D`` (times transmittance and the beam pattern).  Sampling θ
-    ∝ ``p̄(ψ)``, the phase function averaged over the path's wavelengths, removes the
-    forward peak's variance (double scattering near a strobe: the fireflies left by
-    plain equiangular sampling).
-
-    Built from a :class:`~rigsim.render.phase_plugin.WaterPhaseFunction`: the
-    plugin's realised per-cell densities (constant in each cell of its ψ grid), so
-    ``p̄`` is exactly the plugin's ``eval`` averaged over wavelengths (without its
-    defensive uniform share).
-    """
-
-    def __init__(self, phase):
-        import numpy as np
-
-        psi, dens = _cell_densities(phase)  # (K, n), 1/sr
-        K = phase.K
-        cdf = np.concatenate([np.zeros((K, 1)), np.cumsum(dens * np.diff(psi)[None, :], axis=1)], axis=1)
-        self.phase = phase
-        self.K, self.n = K, dens.shape[1]
-        self.psi_lo = mi.Float(psi[:-1].astype(np.float32))
-        self.dens = mi.Float(dens.astype(np.float32).ravel())
-        self.cdf = mi.Float(cdf.astype(np.float32).ravel())
-
-    def weights(self, wavelengths):
-        """w̄_k: component weights averaged over the path's wavelengths."""
-        return self.phase._weights(wavelengths)[1]
-
-    def _cdf_at(self, k, psi):
-        j = self.phase._cell_of(psi)
-        c = dr.gather(mi.Float, self.cdf, k * (self.n + 1) + j)
-        p = dr.gather(mi.Float, self.dens, k * self.n + j)
-        return c + p * (psi - dr.gather(mi.Float, self.psi_lo, j))
-
-    def masses(self, wbar, psi_a, psi_b):
-        """(Z_k = w̄_k ∫_{ψa}^{ψb} p_k dψ for each k, Z = Σ Z_k)."""
-        zk = [dr.maximum(wbar[k] * (self._cdf_at(k, psi_b) - self._cdf_at(k, psi_a)), 0.0) for k in range(self.K)]
-        z = zk[0]
-        for k in range(1, self.K):
-            z = z + zk[k]
-        return zk, z
-
-    def density(self, wbar, psi):
-        """p̄(ψ) = Σ_k w̄_k p_k(ψ) (1/sr, as a density per radian once divided by Z)."""
-        j = self.phase._cell_of(psi)
-        out = mi.Float(0.0)
-        for k in range(self.K):
-            out = dr.fma(wbar[k], dr.gather(mi.Float, self.dens, k * self.n + j), out)
-        return out
-
-    def sample(self, wbar, psi_a, psi_b, zk, z, u1, u2):
-        """ψ ∈ [ψa, ψb] with density p̄(ψ)/Z."""
-        k = mi.UInt32(self.K - 1)
-        acc = mi.Float(0.0)
-        target = u1 * z
-        for c in range(self.K - 1):
-            acc = acc + zk[c]
-            k = dr.select((target < acc) & (k == self.K - 1), mi.UInt32(c), k)
-        # inverse CDF inside component k, restricted to [ψa, ψb]
-        ca = self._cdf_at(k, psi_a)
-        cb = self._cdf_at(k, psi_b)
-        c = dr.fma(u2, cb - ca, ca)
-        base = k * (self.n + 1)
-        j = dr.binary_search(0, self.n, lambda i: dr.gather(mi.Float, self.cdf, base + i) <= c)
-        j = mi.UInt32(dr.clip(mi.Int32(j) - 1, 0, self.n - 1))
-        c0 = dr.gather(mi.Float, self.cdf, base + j)
-        p = dr.gather(mi.Float, self.dens, k * self.n + j)
-        psi = dr.gather(mi.Float, self.psi_lo, j) + dr.select(p > 0, (c - c0) / p, 0.0)
-        return dr.clip(psi, psi_a, psi_b)
-
-
-def _cone_sample(axis, u):
-    """Direction at angle α = π u.x from ``axis``, azimuth 2π u.y: density 1/(2π² sin α) ∝ 1/α near the axis."""
-    a = dr.pi * u.x
-    sa, ca = dr.sincos(a)
-    sp, cp = dr.sincos(2.0 * dr.pi * u.y)
-    return mi.Frame3f(axis).to_world(mi.Vector3f(sa * cp, sa * sp, ca))
-
-
-def _cone_pdf(axis, w):
-    """Solid-angle density of :func:`_cone_sample` at unit direction ``w``."""
-    sa = dr.norm(dr.cross(axis, w))
-    return dr.select(sa > 0, 1.0 / (2.0 * dr.pi * dr.pi * sa), 0.0)
-
-
-class AureoleTable:
-    """Directions around a light with the shape of its aureole in forward-scattering water.
-
-    A ray that leaves ``x`` at angle α from the direction to a point light at distance
-    ``r`` collects, by single scattering along it, ``≈ I σ_s/(r sin α) ∫_α^π p(ψ) dψ``
-    (the equiangular integral: ``ψ`` runs from α at ``x`` to π far beyond the light).
-    For a phase function with a forward peak steeper than ``1/ψ`` that falls off faster
-    than the ``1/α`` of :func:`_cone_sample` — the infinite-variance tail of double
-    scattering near a strobe.  This table samples α with density per radian
-    ``G(α)/N``, ``G(α) = ∫_α^π p̄(ψ) dψ``, ``N = ∫_0^π G dα = ∫_0^π ψ p̄(ψ) dψ``
-    (``p̄``: the water's phase function averaged over its tabulated wavelengths), which
-    makes that light constant per sample up to transmittance and the beam pattern.
-
-    ``G`` is piecewise linear on the phase function's ψ cells; the table uses its cell
-    averages (piecewise-constant density in α, uniform inside a cell), and the
-    solid-angle density is ``g(α) / (2π sin α)``.
-    """
-
-    def __init__(self, phase):
-        import numpy as np
-
-        edges, dens_k = _cell_densities(phase)
-        wbar = np.asarray(phase.tables.weights, np.float64).mean(axis=0)[:phase.K]
-        dens = (wbar[:, None] * dens_k).sum(0)  # p̄ per cell, 1/sr
-        dpsi = np.diff(edges)
-        G = np.concatenate([np.cumsum((dens * dpsi)[::-1])[::-1], [0.0]])  # G at the cell edges
-        mass = 0.5 * (G[:-1] + G[1:]) * dpsi
-        mass = np.maximum(mass, 1e-12 * mass.sum())
-        cdf = np.concatenate([[0.0], np.cumsum(mass)])
-        cdf /= cdf[-1]
-        self.phase = phase
-        self.n = len(dpsi)
-        self.edges = mi.Float(edges.astype(np.float32))
-        self.cdf = mi.Float(cdf.astype(np.float32))
-        self.g = mi.Float((np.diff(cdf) / dpsi).astype(np.float32))  # density per radian
-
-    def sample(self, axis, u1, u2):
-        j = dr.binary_search(0, self.n, lambda i: dr.gather(mi.Float, self.cdf, i) <= u1)
-        j = mi.UInt32(dr.clip(mi.Int32(j) - 1, 0, self.n - 1))
-        c0 = dr.gather(mi.Float, self.cdf, j)
-        c1 = dr.gather(mi.Float, self.cdf, j + 1)
-        a0 = dr.gather(mi.Float, self.edges, j)
-        a1 = dr.gather(mi.Float, self.edges, j + 1)
-        f = dr.select(c1 > c0, (u1 - c0) / (c1 - c0), 0.5)
-        a = dr.clip(dr.fma(dr.clip(f, 0.0, 1.0), a1 - a0, a0), 0.0, dr.pi)
-        sa, ca = dr.sincos(a)
-        sp, cp = dr.sincos(2.0 * dr.pi * u2)
-        return mi.Frame3f(axis).to_world(mi.Vector3f(sa * cp, sa * sp, ca))
-
-    def pdf(self, axis, w):
-        sa = dr.norm(dr.cross(axis, w))
-        a = dr.atan2(sa, dr.dot(axis, w))
-        g = dr.gather(mi.Float, self.g, self.phase._cell_of(a))
-        return dr.select(sa > 0, g / (2.0 * dr.pi * sa), 0.0)
-
-
-def target_table(scene):
-    """``(ShapePtr array, DiscreteDistribution over areas, 1/total area)`` of the scene's opaque
-    shapes (the targets), or None if it has none."""
-    import numpy as np
-
-    shapes = [sh for sh in scene.shapes() if not mi.has_flag(sh.bsdf().flags(), mi.BSDFFlags.Null)]
-    if not shapes:
-        return None
-    areas = np.array([float(np.asarray(sh.surface_area()).ravel()[0]) for sh in shapes])
-    if not (np.all(np.isfinite(areas)) and areas.sum() > 0):
-        return None
-    return (mi.ShapePtr(shapes), mi.DiscreteDistribution(mi.Float(areas.astype(np.float32))),
-            dr.opaque(mi.Float, 1.0 / float(areas.sum())))
-
-
-def sample_target_point(targets, time, u_shape, u_pos, active):
-    """A point uniform by area on the scene's opaque shapes (density ``targets[2]`` = 1/total area).
-
-    ``targets`` is ``(ShapePtr array, DiscreteDistribution over their areas, 1/total area)``
-    as built by :class:`RigsimVolIntegrator`'s scene check; a shape is chosen with
-    probability ∝ its area, then Mitsuba's ``sample_position`` (uniform on the shape).
-    """
-    shapes, distr, _ = targets
-    idx = distr.sample(u_shape, active)
-    sh = dr.gather(mi.ShapePtr, shapes, idx, active)
-    return sh.sample_position(time, u_pos, active)
-
-
-class _Segment:
-    """Equiangular geometry of one ray segment and one light, with the θ density
-
-    ``q(θ) = (1 − α)/(θ_b − θ_a) + α p̄(θ + π/2)/Z`` (α = 0 without a phase table);
-    the distance density is ``q(θ) cos² θ / D``.
-    """
-
-    def __init__(self, o, d, p_light, t_max, table, wbar, alpha):
-        self.o, self.d = o, d
-        self.delta, self.D, self.th_a, self.th_b = _equiangular_frame(o, d, p_light, t_max)
-        self.dth = self.th_b - self.th_a
-        self.t_max = t_max
-        self.table, self.wbar, self.alpha = table, wbar, alpha
-        if table is not None:
-            self.psi_a = self.th_a + dr.pi / 2
-            self.psi_b = self.th_b + dr.pi / 2
-            self.zk, self.z = table.masses(wbar, self.psi_a, self.psi_b)
-
-    def _q(self, th):
-        q = dr.select(self.dth > 0, 1.0 / self.dth, 0.0)
-        if self.table is None:
-            return q
-        ph = dr.select(self.z > 0, self.table.density(self.wbar, th + dr.pi / 2) / self.z, 0.0)
-        a = dr.select(self.z > 0, self.alpha, 0.0)
-        return (1.0 - a) * q + a * ph
-
-    def sample(self, u_sel, u1, u2):
-        th = dr.fma(u_sel, self.dth, self.th_a)  # uniform in θ
-        if self.table is not None:
-            use_phase = (u_sel < self.alpha) & (self.z > 0)
-            psi = self.table.sample(self.wbar, self.psi_a, self.psi_b, self.zk, self.z, u1, u2)
-            th = dr.select(use_phase, psi - dr.pi / 2, dr.fma(u1, self.dth, self.th_a))
-        th = dr.clip(th, self.th_a, self.th_b)
-        s, c = dr.sincos(th)
-        t = dr.clip(self.delta + self.D * s / c, 0.0, self.t_max)
-        pdf = self._q(th) * c * c / self.D
-        return t, dr.select(self.dth > 0, pdf, 0.0)
-
-    def pdf(self, t):
-        x = t - self.delta
-        th = dr.atan2(x, self.D)
-        pdf = self._q(th) * self.D / (self.D * self.D + x * x)
-        return dr.select((self.dth > 0) & (t >= 0) & (t <= self.t_max), pdf, 0.0)
-
-
-# ---------------------------------------------------------------------------------------
-# The integrator
-# ---------------------------------------------------------------------------------------
-def _reflects(bsdf, ctx, si, active):
-    """Whether the surface reflects any light back on the side it is seen from (a black target
-    does not: its halo next-event estimation would cost rays for nothing)."""
-    wo = mi.Vector3f(0.0, 0.0, dr.select(si.wi.z < 0, -1.0, 1.0))
-    return dr.any(bsdf.eval(ctx, si, wo, active) > 0.0)
-
-
-def _dot4(a, b):
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]
-
-
-def _channel(s, j):
-    return dr.select(j == 0, s[0], dr.select(j == 1, s[1], dr.select(j == 2, s[2], s[3])))
 
 
 class RigsimVolIntegrator(mi.SamplingIntegrator):
@@ -558,7 +236,7 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
             raise ConfigError(f"rr_threshold must be in (0, 1], got {self.rr_threshold}",
                               field="integrator.rr_threshold")
         self.mis = str(props.get("mis", "power"))
-        if self.mis not in ("power", "balance"):
+        if self.mis not in MIS_HEURISTICS:
             raise ConfigError(f"mis must be power or balance, got {self.mis!r}", field="integrator.mis")
         self.equiangular = bool(props.get("equiangular", True))
         self.alpha = float(props.get("phase_weighted", DEFAULT_PHASE_WEIGHTED))
@@ -583,35 +261,21 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
         for name, v in (("equiangular_vertex", self.cont_eq), ("equiangular_vertex_camera", self.cont_eq0)):
             if not 0.0 <= v < 1.0:
                 raise ConfigError(f"{name} must be in [0, 1), got {v}", field=f"integrator.{name}")
-        self._tables: dict[int, tuple] = {}
-        self._aureoles: dict[int, tuple] = {}
-        self.ambient = None
+        self.daylight = None
 
     def set_ambient(self, tables, world_radius_m: float = 1000.0) -> "RigsimVolIntegrator":
-        """Light the scene with a daylight field too (:class:`~rigsim.render.daylight.AmbientTables`, or None)."""
-        self.ambient = tables
-        self._world_radius = float(world_radius_m)
+        """Light the scene with a daylight field too (:class:`~rigsim.render.daylight.AmbientTables`, or
+        None), added by a :class:`~rigsim.render.integrators.daylight.DaylightIntegrator` on the same rays."""
+        from rigsim.render.integrators.daylight import DaylightIntegrator
+
+        self.daylight = None if tables is None else DaylightIntegrator(max_depth=self.max_depth).set_ambient(
+            tables, world_radius_m)
         return self
 
-    def _cached(self, cache: dict, cls, phase, needs: tuple[str, ...]):
-        """``cls(phase)`` for a rigsim water phase function, kept per phase object (None for others)."""
-        if not all(hasattr(phase, a) for a in needs):
-            return None
-        hit = cache.get(id(phase))
-        if hit is None or hit[0] is not phase:
-            if len(cache) > 16:
-                cache.clear()
-            hit = (phase, cls(phase))
-            cache[id(phase)] = hit
-        return hit[1]
-
-    def _phase_table(self, phase):
-        """The ψ table of a rigsim water phase function (None for other phase functions)."""
-        return self._cached(self._tables, PhaseAngleTable, phase, ("realised_masses", "tables", "_weights", "_cell_of"))
-
-    def _aureole_table(self, phase):
-        """The :class:`AureoleTable` of a rigsim water phase function (None for other phase functions)."""
-        return self._cached(self._aureoles, AureoleTable, phase, ("realised_masses", "tables", "_cell_of"))
+    @property
+    def ambient(self):
+        """The daylight field's tables, or None."""
+        return None if self.daylight is None else self.daylight.ambient
 
     # -- scene checks -----------------------------------------------------------------
     def _scene_info(self, scene, medium):
@@ -652,38 +316,11 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
         # medium vertices: a shape chosen by area, a point uniform on it (density 1/total area)
         return emitters, target_table(scene)
 
-    # -- MIS ----------------------------------------------------------------------------
     def mis_weight(self, pdf_a, pdf_b):
-        """Weight of technique a against b (power heuristic, β = 2, or balance)."""
-        if self.mis == "power":
-            a2, b2 = pdf_a * pdf_a, pdf_b * pdf_b
-            w = a2 / (a2 + b2)
-        else:
-            w = pdf_a / (pdf_a + pdf_b)
-        return dr.select(dr.isfinite(w), w, 0.0)
+        """Weight of technique a against b with this integrator's heuristic (:func:`~.common.mis_weight`)."""
+        return mis_weight(pdf_a, pdf_b, self.mis)
 
     # -- helpers ------------------------------------------------------------------------
-    @staticmethod
-    def _medium_interaction(p, d, t, wavelengths, time, medium_ptr):
-        mei = dr.zeros(mi.MediumInteraction3f)
-        mei.p = p
-        mei.t = t
-        mei.wi = -d
-        mei.sh_frame = mi.Frame3f(mei.wi)
-        mei.wavelengths = wavelengths
-        mei.time = time
-        mei.medium = medium_ptr
-        return mei
-
-    @staticmethod
-    def _light(scene, it, emitter, sigma_t, active):
-        """Unoccluded, attenuated light of ``emitter`` at interaction ``it``: (value, direction sample)."""
-        ds, val = emitter.sample_direction(it, mi.Point2f(0.5), active)
-        if sigma_t is not None:
-            val = val * dr.exp(-sigma_t * ds.dist)
-        occluded = scene.ray_test(it.spawn_ray_to(ds.p), active)
-        return dr.select(active & ~occluded, val, 0.0), ds
-
     def _directed(self, x, wo, pdf_of, light_pos, aureole, sampler, active):
         """Mix a default direction with directions drawn around the lights.
 
@@ -707,7 +344,7 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
         axes = [dr.normalize(light_pos[k] - x) for k in range(K)]
         for k in range(K):
             pick = use_light & (kc == k)
-            wo = dr.select(pick & ~use_au, _cone_sample(axes[k], u_a), wo)
+            wo = dr.select(pick & ~use_au, cone_sample(axes[k], u_a), wo)
             if h > 0:
                 wo = dr.select(pick & use_au, aureole.sample(axes[k], u_a.x, u_a.y), wo)
         return wo, self._directed_pdf(wo, pdf_of(wo), axes, aureole)
@@ -719,7 +356,7 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
         c, h = self.cone, (self.aureole if aureole is not None else 0.0)
         pdf = (1.0 - c) * pdf_wo
         for k in range(K):
-            pk = (1.0 - h) * _cone_pdf(axes[k], wo)
+            pk = (1.0 - h) * cone_pdf(axes[k], wo)
             if h > 0:
                 pk += h * aureole.pdf(axes[k], wo)
             pdf += (c / K) * pk
@@ -738,16 +375,16 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
 
         if has_medium:
             medium_ptr = mi.MediumPtr(medium)
-            mei0 = self._medium_interaction(ray.o, ray.d, mi.Float(0.0), wavelengths, time, medium_ptr)
+            mei0 = medium_interaction(ray.o, ray.d, mi.Float(0.0), wavelengths, time, medium_ptr)
             sigma_s, _, sigma_t = medium.get_scattering_coefficients(mei0, active)
             sigma_t = mi.Spectrum(sigma_t)
             sigma_s = mi.Spectrum(sigma_s)
             sig_min = dr.minimum(dr.minimum(sigma_t[0], sigma_t[1]), dr.minimum(sigma_t[2], sigma_t[3]))
             t_cap = T_CAP_OPTICAL_DEPTH / dr.maximum(sig_min, 1e-30)
-            phase = medium.phase_function()
+            phase = water_phase(medium.phase_function())
             scatters = dr.any(sigma_s > 0.0)
-            table = self._phase_table(phase) if (eq and self.alpha > 0) else None
-            aureole = self._aureole_table(phase) if self.aureole > 0 else None
+            table = phase_angle_table(phase) if (eq and self.alpha > 0) else None
+            aureole = aureole_table(phase) if self.aureole > 0 else None
             cone = self.cone > 0 and len(emitters) > 0
             halo = self.halo and aureole is not None and eq and cone
             tnee = self.target_nee and targets is not None and len(emitters) > 0
@@ -776,17 +413,16 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
             r_h = make_ray(w_h)
             si_h = scene.ray_intersect(r_h, active)
             t_sh = dr.select(si_h.is_valid(), si_h.t, dr.inf)
-            seg_h = _Segment(r_h.o, w_h, p_light, dr.minimum(t_sh, t_cap), table, wbar, self.alpha)
+            seg_h = Segment(r_h.o, w_h, p_light, dr.minimum(t_sh, t_cap), table, wbar, self.alpha)
             t_h, pdf_h = seg_h.sample(sampler.next_1d(active), sampler.next_1d(active), sampler.next_1d(active))
             ok_h = active & (pa > 0) & (pdf_h > 0) & (t_h < t_sh)
             x_h = r_h.o + w_h * t_h
-            mei_h = self._medium_interaction(x_h, w_h, t_h, wavelengths, time, medium_ptr)
-            val_h, ds_h = self._light(scene, mei_h, em, sigma_t, ok_h)
+            mei_h = medium_interaction(x_h, w_h, t_h, wavelengths, time, medium_ptr)
+            val_h, ds_h = connect_light(scene, mei_h, em, sigma_t, ok_h)
             ph2, _ = phase.eval_pdf(mi.PhaseFunctionContext(sampler), mei_h, ds_h.d, ok_h)
             T_h = dr.exp(-sigma_t * t_h)
             # (value / pa) × MIS weight, in a form that stays finite for tiny pa
-            w_over_pa = pa / (pa * pa + pm * pm) if self.mis == "power" else 1.0 / (pa + pm)
-            w_over_pa = dr.select(dr.isfinite(w_over_pa), w_over_pa, 0.0)
+            w_over_pa = mis_weight_over_pdf(pa, pm, self.mis)
             c_h = f1 * w_over_pa * (T_h * sigma_s / pdf_h) * ph2 * val_h
             # a product that overflows (inf · 0 in one wavelength; ~4 in 2·10⁶ paths of the
             # demo's jerlov-II cases) is dropped here rather than the whole path sample
@@ -810,10 +446,7 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
         def body(sampler, active, depth, o, d, beta, L, hero, pw, Lb, clean, hw, qs):
             # ---- termination: depth limit, zero throughput, Russian roulette
             active &= (depth + 1 < max_depth) & dr.any(beta != 0.0)
-            q = dr.minimum(dr.max(beta) * (1.0 / self.rr_threshold), 0.95)
-            rr = depth > self.rr_depth
-            active &= (sampler.next_1d(active) < q) | ~rr
-            beta = dr.select(rr & active, beta / q, beta)
+            active, beta = russian_roulette(sampler, beta, depth, self.rr_depth, self.rr_threshold, active)
 
             r = mi.Ray3f(o, d, time, wavelengths)
             si = scene.ray_intersect(r, active)
@@ -827,24 +460,24 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
             if has_medium:
                 # ---- distance sampling, spectral MIS over the path's wavelengths
                 u_t = sampler.next_1d(active)
-                t_d = -dr.log(1.0 - u_t) / _channel(sigma_t, hero)
+                t_d = -dr.log(1.0 - u_t) / channel(sigma_t, hero)
                 med = active & (t_d < t_s) & scatters
                 T_d = dr.exp(-sigma_t * t_d)
-                pdf_d = _dot4(pw, sigma_t * T_d)
+                pdf_d = dot4(pw, sigma_t * T_d)
                 T_s = dr.exp(-sigma_t * t_s)
-                P_s = _dot4(pw, T_s)
+                P_s = dot4(pw, T_s)
                 beta_hit = beta * T_s
                 w_d = dr.select(pdf_d > 0, T_d * sigma_s / pdf_d, 0.0)
                 x_d = o + d * t_d
-                mei_d = self._medium_interaction(x_d, d, t_d, wavelengths, time, medium_ptr)
+                mei_d = medium_interaction(x_d, d, t_d, wavelengths, time, medium_ptr)
                 ctx = mi.PhaseFunctionContext(sampler)
                 t_e_max = dr.minimum(t_s, t_cap)
 
                 segs, t_es, ok_es = [], [], []
                 for k, em in enumerate(emitters):
-                    seg = _Segment(o, d, light_pos[k], t_e_max, table, wbar, self.alpha) if eq else None
+                    seg = Segment(o, d, light_pos[k], t_e_max, table, wbar, self.alpha) if eq else None
                     # (1) the distance sample connected to light k
-                    val, ds = self._light(scene, mei_d, em, sigma_t, med)
+                    val, ds = connect_light(scene, mei_d, em, sigma_t, med)
                     ph_val, _ = phase.eval_pdf(ctx, mei_d, ds.d, med)
                     w = self.mis_weight(pdf_d, seg.pdf(t_d)) if eq else 1.0
                     c_d = dr.select(med, beta * w_d * ph_val * val * (w * hw[k]), 0.0)
@@ -856,11 +489,11 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                                                 sampler.next_1d(active))
                         ok = active & scatters & (pdf_e > 0) & (t_e < t_s)
                         x_e = o + d * t_e
-                        mei_e = self._medium_interaction(x_e, d, t_e, wavelengths, time, medium_ptr)
-                        val_e, ds_e = self._light(scene, mei_e, em, sigma_t, ok)
+                        mei_e = medium_interaction(x_e, d, t_e, wavelengths, time, medium_ptr)
+                        val_e, ds_e = connect_light(scene, mei_e, em, sigma_t, ok)
                         ph_e, _ = phase.eval_pdf(ctx, mei_e, ds_e.d, ok)
                         T_e = dr.exp(-sigma_t * t_e)
-                        pdf_d_e = _dot4(pw, sigma_t * T_e)
+                        pdf_d_e = dot4(pw, sigma_t * T_e)
                         w_e = self.mis_weight(pdf_e, pdf_d_e)
                         c_e = dr.select(ok, beta * (T_e * sigma_s / pdf_e) * ph_e * val_e * (w_e * hw[k]), 0.0)
                         L += c_e
@@ -890,13 +523,13 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                     for k in range(n_l):
                         p_eq += (eps / n_l) * segs[k].pdf(t_c)
                     pj_c = (1.0 - eps) * sigma_t * T_c + p_eq  # density of t_c for each hero channel j
-                    pdf_c = _dot4(pw, pj_c)
+                    pdf_c = dot4(pw, pj_c)
                     med_c = ok_c
                     surf &= ~use_e & ((t_d >= t_s) | ~scatters)
                     p_surf = (1.0 - eps) * P_s
                     w_med = dr.select(pdf_c > 0, T_c * sigma_s / pdf_c, 0.0)
                     x_c = o + d * t_c
-                    mei_c = self._medium_interaction(x_c, d, t_c, wavelengths, time, medium_ptr)
+                    mei_c = medium_interaction(x_c, d, t_c, wavelengths, time, medium_ptr)
                 else:
                     med_c, x_c, mei_c, p_surf = med, x_d, mei_d, P_s
                     # albedo 0 (the ``direct`` pass): every path goes on to the surface, weight T
@@ -950,17 +583,16 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                         p_cont = self._directed_pdf(w_t, p_cont, axes_t, aureole)
                     lit = mi.Spectrum(0.0)
                     for em in emitters:
-                        val_t, ds_t = self._light(scene, si_t, em, sigma_t, ok_t)
+                        val_t, ds_t = connect_light(scene, si_t, em, sigma_t, ok_t)
                         lit += bsdf_t.eval(bsdf_ctx, si_t, si_t.to_local(ds_t.d), ok_t) * val_t
                     if halo and self.surface_halo:  # and the lights' halos seen from y, as at a surface hit (below)
-                        ok_y = ok_t & (depth + 3 < max_depth) & _reflects(bsdf_t, bsdf_ctx, si_t, ok_t)
+                        ok_y = ok_t & (depth + 3 < max_depth) & reflects(bsdf_t, bsdf_ctx, si_t, ok_t)
                         axes_y = [dr.normalize(light_pos[k] - si_t.p) for k in range(len(emitters))]
                         em_y, axis_y, pos_y = pick_light(sampler, axes_y, ok_y)
                         lit += halo_nee(sampler, si_t.spawn_ray,
                                         lambda w: bsdf_t.eval_pdf(bsdf_ctx, si_t, si_t.to_local(w), ok_y),
                                         axes_y, axis_y, pos_y, em_y, ok_y, 1.0 / len(emitters))
-                    w_over_p = p_sa / (p_sa * p_sa + p_cont * p_cont) if self.mis == "power" else 1.0 / (p_sa + p_cont)
-                    w_over_p = dr.select(dr.isfinite(w_over_p), w_over_p, 0.0)
+                    w_over_p = mis_weight_over_pdf(p_sa, p_cont, self.mis)
                     c_t = beta * w_med * ph_t * dr.exp(-sigma_t * si_t.t) * lit * w_over_p
                     L += dr.select(ok_t & (p_sa > 0) & dr.all(dr.isfinite(c_t)), c_t, 0.0)
                     qs_next = dr.select(deep_t, ph_pdf, 0.0)
@@ -1000,7 +632,7 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                 p_sa_h = dr.select(cos_h > 0, targets[2] * dr.square(si.t) / cos_h, 0.0)
                 w_hit = dr.select(qs > 0, self.mis_weight(qs, p_sa_h), 1.0)
             for em in emitters:
-                val, ds = self._light(scene, si, em, sigma_t, hit)
+                val, ds = connect_light(scene, si, em, sigma_t, hit)
                 f = bsdf.eval(bsdf_ctx, si, si.to_local(ds.d), hit)
                 L += dr.select(hit, beta_hit * f * val * w_hit, 0.0)
             hw_s = [mi.Float(1.0) for _ in emitters]
@@ -1013,7 +645,7 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                 # they came only from the surface's light-directed continuations: a few paths with
                 # the chart's full halo light, fireflies in the dark water beside an edge-lit chart.
                 axes_s = [dr.normalize(light_pos[k] - si.p) for k in range(len(emitters))]
-                halo_s = _reflects(bsdf, bsdf_ctx, si, hit)
+                halo_s = reflects(bsdf, bsdf_ctx, si, hit)
                 hit_h = hit & (depth + 2 < max_depth) & halo_s
                 em_s, axis_s, pos_s = pick_light(sampler, axes_s, hit_h)
                 c_sh = halo_nee(sampler, si.spawn_ray, lambda w: bsdf.eval_pdf(bsdf_ctx, si, si.to_local(w), hit_h),
@@ -1066,97 +698,13 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
             L, Lb = state[6], state[9]
         else:
             L, Lb = mi.Spectrum(0.0), mi.Spectrum(0.0)
-        if self.ambient is not None:
-            La, Lab = self._ambient_sample(scene, sampler, ray, medium, active)
+        if self.daylight is not None:
+            La, Lab = self.daylight.sample_ambient(scene, sampler, ray, medium, active)
             L, Lb = L + La, Lb + Lab
         aovs = [Lb[0], Lb[1], Lb[2], Lb[3]] if self.backscatter_aov else []
         return L, mi.Bool(True), aovs
 
     # -- daylight ---------------------------------------------------------------------------
-    def _ambient_sample(self, scene, sampler, ray, medium, active):
-        """Radiance from the daylight field along ``ray`` (see :mod:`rigsim.render.daylight`).
-
-        A chain of surface bounces only (the water's own scattering of daylight is in the
-        field): each segment from o along d that meets an object at t adds the field's path
-        radiance ``L_amb(d; y_o)(1 − e^{−(c − K d_y) t})`` (all of ``L_amb`` if it meets
-        nothing), each surface the sun beam by next-event estimation (shadow ray to the sea
-        surface, caustics), and the path goes on by BSDF sampling with weight ``e^{−c t}``.
-        The camera segment carries path radiance only if the water scatters (not in the
-        ``direct`` pass) and no attenuation in the ``clear`` pass (no medium).
-        """
-        A = self.ambient
-        wavelengths = ray.wavelengths
-        time = ray.time
-        idx = A.index(wavelengths)
-        c = A.spec(A.c, idx)
-        kd = A.spec(A.k_diffuse, idx)
-        kb = A.spec(A.k_beam, idx)
-        e_beam = A.spec(A.beam, idx)
-        y0, y_surf = A.y0, A.y_surface
-        w_sun = mi.Vector3f(*[-x for x in A.sun_dir])  # towards the sun
-        has_medium = medium is not None
-        if has_medium:
-            mei0 = self._medium_interaction(ray.o, ray.d, mi.Float(0.0), wavelengths, time, mi.MediumPtr(medium))
-            sigma_s, _, _ = medium.get_scattering_coefficients(mei0, active)
-            cam_scatters = dr.any(mi.Spectrum(sigma_s) > 0.0)
-        else:
-            cam_scatters = mi.Bool(False)
-        max_depth = self.max_depth if self.max_depth >= 0 else 2**31
-        max_bounce = 8
-        r_max = 0.5 * getattr(self, "_world_radius", 1000.0)
-        bsdf_ctx = mi.BSDFContext()
-
-        def cond(sampler, active, depth, o, d, beta, L, Lb):
-            return active
-
-        def body(sampler, active, depth, o, d, beta, L, Lb):
-            first = depth == 0
-            rr = depth > 2
-            q = dr.minimum(dr.max(beta), 0.95)
-            active &= (sampler.next_1d(active) < q) | ~rr
-            beta = dr.select(rr & active, beta / q, beta)
-            r = mi.Ray3f(o, d, time, wavelengths)
-            si = scene.ray_intersect(r, active)
-            bsdf = si.bsdf(r)
-            hit = active & si.is_valid() & ~mi.has_flag(bsdf.flags(), mi.BSDFFlags.Null)
-            t_s = dr.select(hit, si.t, dr.inf)
-            # the field's path radiance along the segment (Duntley)
-            k_eff = dr.maximum(c - kd * d.y, 0.05 * c)
-            frac = dr.select(hit, 1.0 - dr.exp(-k_eff * dr.minimum(t_s, 1e30)), 1.0)
-            l_look = A.radiance(d, idx) * dr.exp(kd * (o.y - y0))
-            if has_medium:
-                emit = active & (~first | cam_scatters)
-            else:
-                emit = active & ~first
-            L += dr.select(emit, beta * l_look * frac, 0.0)
-            Lb += dr.select(emit & first, beta * l_look * frac, 0.0)  # the camera segment: backscatter
-            # surfaces: attenuation to the surface, sun beam by next-event estimation
-            water_seg = mi.Bool(True) if has_medium else ~first
-            beta = dr.select(water_seg, beta * dr.exp(-c * dr.select(hit, t_s, 0.0)), beta)
-            surf = hit & (depth + 1 < max_depth)
-            y = dr.minimum(si.p.y, y_surf)
-            e_y = e_beam * dr.exp(kb * (y - y0)) * A.caustic(si.p)
-            sr = si.spawn_ray(w_sun)
-            sr.maxt = dr.minimum((y_surf - y) / dr.maximum(w_sun.y, 1e-6), r_max)
-            occluded = scene.ray_test(sr, surf)
-            f = bsdf.eval(bsdf_ctx, si, si.to_local(w_sun), surf)
-            L += dr.select(surf & ~occluded, beta * f * e_y, 0.0)
-            # diffuse field: BSDF sampling, the next segment looks it up
-            bs, bw = bsdf.sample(bsdf_ctx, si, sampler.next_1d(surf), sampler.next_2d(surf), surf)
-            cont = surf & (bs.pdf > 0) & (depth + 1 < max_bounce)
-            beta = dr.select(cont, beta * bw, beta)
-            r_s = si.spawn_ray(si.to_world(bs.wo))
-            o = dr.select(cont, r_s.o, o)
-            d = dr.select(cont, r_s.d, d)
-            depth = dr.select(cont, depth + 1, depth)
-            active = cont & dr.any(beta != 0.0)
-            return sampler, active, depth, o, d, beta, L, Lb
-
-        state = (sampler, mi.Bool(active), mi.UInt32(0), mi.Point3f(ray.o), mi.Vector3f(ray.d),
-                 mi.Spectrum(1.0), mi.Spectrum(0.0), mi.Spectrum(0.0))
-        state = dr.while_loop(state, cond, body, labels=("sampler", "active", "depth", "o", "d", "beta", "L", "Lb"),
-                              label="rigsim_vol_daylight")
-        return state[-2], state[-1]
 
     def aov_names(self):
         """``backscatter.0..3`` (the path's four wavelengths) when ``backscatter_aov`` is on."""
@@ -1165,6 +713,3 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
     def to_string(self):
         return (f"RigsimVolIntegrator[max_depth={self.max_depth}, rr_depth={self.rr_depth}, mis={self.mis}, "
                 f"equiangular={self.equiangular}]")
-
-
-mi.register_integrator(PLUGIN_NAME, lambda props: RigsimVolIntegrator(props))

@@ -1,0 +1,77 @@
+"""rigsim's Mitsuba integrators.
+
+* :mod:`rigsim.render.integrators.strobe` — ``rigsim_vol``: the volumetric path tracer for
+  strobe- and video-light-lit water (equiangular sampling toward the lights, spectral MIS,
+  halo and target next-event estimation); with a daylight field it also runs
+* :mod:`rigsim.render.integrators.daylight` — ``rigsim_daylight``: the daylight field at depth
+  through Duntley's transport and surface bounces;
+* :mod:`rigsim.render.integrators.common` — what both share: MIS weights, Russian roulette, light
+  connections, sampling tables.
+
+Importing this package registers both plugins with Mitsuba.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+from rigsim.errors import ConfigError
+from rigsim.render.integrators.common import (
+    T_CAP_OPTICAL_DEPTH,
+    equiangular_pdf,
+    equiangular_sample,
+    sample_target_point,
+    target_table,
+)
+from rigsim.render.integrators.daylight import PLUGIN_NAME as DAYLIGHT_PLUGIN_NAME
+from rigsim.render.integrators.daylight import DaylightIntegrator
+from rigsim.render.integrators.strobe import PLUGIN_NAME, RigsimVolIntegrator
+from rigsim.render.variant import mitsuba
+
+__all__ = ["RigsimVolIntegrator", "DaylightIntegrator", "PLUGIN_NAME", "DAYLIGHT_PLUGIN_NAME", "INTEGRATORS",
+           "integrator_dict", "with_integrator", "equiangular_sample", "equiangular_pdf", "sample_target_point",
+           "target_table", "T_CAP_OPTICAL_DEPTH"]
+
+mi, dr = mitsuba()
+
+#: Integrators ``rigsim render --integrator`` can choose: name → Mitsuba plugin.
+INTEGRATORS = {"rigsim": PLUGIN_NAME, "volpath": "volpath"}
+
+
+def integrator_dict(name: str = "rigsim", *, max_depth: int = -1, rr_depth: int = 5,
+                    backscatter_aov: bool = False) -> dict:
+    """Mitsuba dict of integrator ``name`` (a key of :data:`INTEGRATORS`).
+
+    ``backscatter_aov`` (rigsim only): the integrator also returns the backscatter estimate
+    of each path as AOVs (see :meth:`RigsimVolIntegrator.aov_names`).
+    """
+    if name not in INTEGRATORS:
+        raise ConfigError(f"unknown integrator {name!r}", field="integrator", allowed=", ".join(INTEGRATORS))
+    d = {"type": INTEGRATORS[name], "max_depth": int(max_depth), "rr_depth": int(rr_depth)}
+    if backscatter_aov:
+        if name != "rigsim":
+            raise ConfigError("only the rigsim integrator returns backscatter AOVs", field="integrator",
+                              allowed="rigsim")
+        d["backscatter_aov"] = True
+    return d
+
+
+def with_integrator(ms, integrator):
+    """The same loaded scene with another integrator (a :class:`MitsubaScene` copy).
+
+    ``integrator`` is a Mitsuba dict, a name of :data:`INTEGRATORS` or an integrator
+    object.  The shapes and emitters (with their BSDFs and media) are reused, not
+    rebuilt; shape ids are kept.
+    """
+    if isinstance(integrator, str):
+        integrator = integrator_dict(integrator)
+    d = {"type": "scene", "integrator": integrator}
+    for i, sh in enumerate(ms.scene.shapes()):
+        d[sh.id() or f"shape{i}"] = sh
+    for i, e in enumerate(ms.scene.emitters()):
+        d[f"emitter{i}"] = e
+    return dataclasses.replace(ms, scene=mi.load_dict(d, optimize=False))
+
+
+mi.register_integrator(PLUGIN_NAME, lambda props: RigsimVolIntegrator(props))
+mi.register_integrator(DAYLIGHT_PLUGIN_NAME, lambda props: DaylightIntegrator(props))

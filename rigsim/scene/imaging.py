@@ -1,0 +1,142 @@
+"""What an image of a scene is asked to be, checked once for both engines.
+
+:func:`image_request` validates the size, the bands and the ground-truth layers of an image,
+and :func:`check_scene_for_bands` that a scene can be imaged in those bands (the water's IOPs
+defined at every band centre, every light's and target's spectrum covering every band, the
+camera's frame valid).  The Monte Carlo renderer (:func:`rigsim.render.render`) and the fast
+engine (:func:`rigsim.preview.render_preview`) both call them, so the same input is accepted
+or refused with the same one-line message by either.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from rigsim.errors import ConfigError
+from rigsim.scene.types import Scene
+from rigsim.spectrum import band_edges
+
+__all__ = ["IMAGE_LAYERS", "MAX_IMAGE_SIDE", "ImageRequest", "image_request", "check_int", "check_scene_for_bands"]
+
+#: Ground-truth layers an image can carry (besides the radiance / flash): see
+#: :data:`rigsim.spectral_image.LAYER_DOCS`.
+IMAGE_LAYERS = ("range_m", "clear", "object_id", "direct", "backscatter")
+#: Largest image side (pixels).
+MAX_IMAGE_SIDE = 16384
+
+
+def check_int(name: str, v, lo: int, hi: int | None = None) -> int:
+    """``v`` as an int in ``[lo, hi]`` (a bool, a fraction or a non-number is refused), else a ConfigError."""
+    if isinstance(v, bool):
+        raise ConfigError(f"must be an integer, got {v!r}", field=name)
+    try:
+        iv = int(v)
+    except (TypeError, ValueError, OverflowError):
+        raise ConfigError(f"must be an integer, got {v!r}", field=name) from None
+    if iv != v or iv < lo or (hi is not None and iv > hi):
+        raise ConfigError(f"must be an integer in [{lo}, {hi if hi is not None else '∞'}], got {v!r}", field=name,
+                          allowed=f"{lo} … {hi if hi is not None else '∞'}")
+    return iv
+
+
+@dataclass(frozen=True, eq=False)
+class ImageRequest:
+    """A checked image size, bands and ground-truth layers.
+
+    Attributes
+    ----------
+    width, height
+        Pixels.
+    wavelength_nm, bandwidth_nm
+        Band centres and widths (nm; :func:`rigsim.spectrum.band_edges`).
+    layers
+        Ground-truth layers from :data:`IMAGE_LAYERS` (``split`` adds ``direct`` and
+        ``backscatter``).
+    """
+
+    width: int
+    height: int
+    wavelength_nm: np.ndarray
+    bandwidth_nm: np.ndarray
+    layers: tuple[str, ...]
+
+    @property
+    def band_lo_nm(self) -> float:
+        """Lower edge of the first band (nm)."""
+        return float(self.wavelength_nm[0] - self.bandwidth_nm[0] / 2)
+
+    @property
+    def band_hi_nm(self) -> float:
+        """Upper edge of the last band (nm)."""
+        return float(self.wavelength_nm[-1] + self.bandwidth_nm[-1] / 2)
+
+
+def image_request(*, width, height, wavelengths_nm, bandwidth_nm=None, layers: Sequence[str] = (),
+                  split: bool = False) -> ImageRequest:
+    """Check an image's size, bands and layers (one-line ConfigErrors naming the field)."""
+    w = check_int("width", width, 1, MAX_IMAGE_SIDE)
+    h = check_int("height", height, 1, MAX_IMAGE_SIDE)
+    if isinstance(layers, str):
+        layers = (layers,)
+    layers = tuple(layers)
+    for k in layers:
+        if k not in IMAGE_LAYERS:
+            raise ConfigError(f"unknown layer {k!r}", field="layers", allowed=", ".join(IMAGE_LAYERS))
+    if split:
+        layers = layers + tuple(k for k in ("direct", "backscatter") if k not in layers)
+    wl, bw = band_edges(wavelengths_nm, bandwidth_nm)
+    return ImageRequest(w, h, wl, bw, layers)
+
+
+def check_scene_for_bands(scene: Scene, request: ImageRequest) -> None:
+    """Refuse a scene that cannot be imaged in the request's bands; warn about non-square pixels.
+
+    The water's IOPs must be defined at every band centre (within a band beyond the water's
+    table, e.g. 700–705 nm for a table ending at 700 nm, its end value is held); each light's
+    and each target's spectrum must cover every band; the camera's frame must be valid.
+    """
+    lo, hi = request.band_lo_nm, request.band_hi_nm
+    scene.camera.frame()  # validates forward/up
+    if scene.water is not None:
+        scene.water.check_range([float(request.wavelength_nm[0]), float(request.wavelength_nm[-1])])
+    for light in scene.lights:
+        if light.kind not in ("strobe", "continuous"):
+            raise ConfigError(f"light {light.name!r}: kind must be strobe or continuous, got {light.kind!r}",
+                              field=f"lights.{light.name}.kind", allowed="strobe, continuous")
+        wl = np.asarray(light.wavelength_nm, float)
+        a = np.asarray(light.axial_intensity, float)
+        if wl.size == 0 or a.size != wl.size:
+            raise ConfigError(f"light {light.name!r}: intensity table is empty or mismatched",
+                              field=f"lights.{light.name}")
+        if wl.size > 1 and (wl[0] > lo + 1e-9 or wl[-1] < hi - 1e-9):
+            raise ConfigError(f"light {light.name!r} spectrum covers {wl[0]:g}–{wl[-1]:g} nm, the bands need "
+                              f"{lo:g}–{hi:g} nm", field=f"lights.{light.name}",
+                              allowed=f"a spectrum covering {lo:g}–{hi:g} nm")
+        if not np.all(np.isfinite(a)) or np.any(a < 0):
+            raise ConfigError(f"light {light.name!r}: intensities must be finite and >= 0",
+                              field=f"lights.{light.name}", allowed="finite, >= 0")
+    for i, t in enumerate(scene.targets):
+        if not (math.isfinite(t.distance_m) and t.distance_m > 0):
+            raise ConfigError(f"distance must be > 0 m, got {t.distance_m}", field=f"targets[{i}].distance_m",
+                              allowed="> 0")
+        if not (math.isfinite(t.size_m) and t.size_m > 0):
+            raise ConfigError(f"size must be > 0 m, got {t.size_m}", field=f"targets[{i}].size_m", allowed="> 0")
+        if t.reflectance:
+            wl = np.asarray(t.reflectance_wavelength_nm, float)
+            r = np.asarray(t.reflectance, float)
+            if np.any(~np.isfinite(r)) or np.any(r < 0) or np.any(r > 1):
+                raise ConfigError("reflectance must be within 0…1", field=f"targets[{i}].reflectance",
+                                  allowed="0 ≤ r ≤ 1")
+            if wl.size > 1 and (wl[0] > lo + 1e-9 or wl[-1] < hi - 1e-9):
+                raise ConfigError(f"reflectance covers {wl[0]:g}–{wl[-1]:g} nm, the bands need {lo:g}–{hi:g} nm",
+                                  field=f"targets[{i}].reflectance")
+    w, h = request.width, request.height
+    cam = scene.camera
+    if abs(w / h - cam.sensor_width_mm / cam.sensor_height_mm) > 0.02 * w / h:
+        warnings.warn(f"image aspect {w}x{h} differs from the sensor's {cam.sensor_width_mm}x{cam.sensor_height_mm} mm; "
+                      "pixels will not be square", RuntimeWarning, stacklevel=3)

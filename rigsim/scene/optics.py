@@ -1,0 +1,277 @@
+"""The camera's optics in the scene: film positions ↔ rays in the water, through the port.
+
+The one implementation of the camera and port model (numpy, float64).  The Monte Carlo
+renderer (:mod:`rigsim.render`) converts the rays computed here into Dr.Jit arrays, the
+fast engine (:mod:`rigsim.preview`), the target layout (:mod:`rigsim.scene.layout`) and the
+sensor stage (:mod:`rigsim.sensor`) call these functions directly.
+
+Lens
+----
+A pinhole at the entrance pupil (``Camera.position_m``) with the in-air field of view of
+the sensor and focal length: a film position ``(px, py)`` in [0, 1]² (left → right, top →
+bottom) looks along ``forward + x right + y up`` in air with
+``x = (2 px − 1) w/(2f)``, ``y = (1 − 2 py) h/(2f)`` (``w, h`` the sensor size, ``f`` the
+focal length).  The image's right is ``forward × up`` (:meth:`Camera.frame`), row 0 is the
+top, as Mitsuba renders.  The horizontal field of view comes from the sensor width, the
+vertical one from its height.
+
+Ports (exact ray geometry, no paraxial approximation)
+-----------------------------------------------------
+* **dome** — a thin dome concentric with the entrance pupil: chief rays cross both of its
+  surfaces at normal incidence, so directions are unchanged; the ray enters the water at
+  the outer surface, ``radius + thickness`` from the pupil.
+* **flat** — a plane window normal to the optical axis at ``standoff`` from the pupil,
+  ``thickness`` thick.  A ray is refracted air → glass → water by Snell's law at both faces
+  (``n_air sin θ_a = n_g sin θ_g = n_w sin θ_w``; the glass cancels for the direction but
+  shifts the ray sideways), which narrows the field of view and gives the flat port's
+  pincushion distortion exactly.
+
+The medium outside the port has the index :func:`outside_index` (sea water,
+:data:`~rigsim.water.refraction.WATER_INDEX`), also in the ground-truth ``clear`` view
+without water, so that its pixels see the same points.
+
+Radiance through the port
+-------------------------
+The renderers report the in-water radiance arriving at the port.  Behind the port, in air,
+the radiance is ``T_port L / n_w²`` (the basic radiance ``L/n²`` is conserved through
+lossless interfaces, Mobley 1994 §4.3); ``T_port`` is the product of the unpolarised
+Fresnel transmittances of the water→glass and glass→air surfaces at the ray's angles
+(:func:`port_transmittance`; multiple reflections inside the window and glass absorption
+neglected).
+
+References
+----------
+Mobley, C. D. (1994). *Light and Water*, Academic Press, §4.3 (the n² law of radiance).
+Born, M. & Wolf, E. (1999). *Principles of Optics*, 7th ed., §1.5 (Fresnel).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rigsim.errors import ConfigError
+from rigsim.scene.types import Camera, Scene
+from rigsim.water.refraction import WATER_INDEX, fresnel_reflectance_unpolarised
+
+__all__ = [
+    "WATER_INDEX",
+    "outside_index",
+    "tan_half_fov",
+    "air_directions",
+    "camera_rays",
+    "pixel_rays",
+    "fov_water_deg",
+    "angular_pitch_rad",
+    "project_points",
+    "port_transmittance",
+    "air_radiance_factor",
+    "port_reach_m",
+    "world_radius_m",
+]
+
+
+def outside_index(scene: Scene) -> float:
+    """Refractive index of the medium outside the port: sea water, :data:`WATER_INDEX`.
+
+    Also for a scene without water (``scene.water is None``): that is the *clear* ground
+    truth, the same view with the water's attenuation and scattering removed, so its pixels
+    see the same points as the image in water (the renderer's ``clear`` pass, the fast
+    engine and the target layout all use these rays).
+    """
+    return WATER_INDEX
+
+
+def tan_half_fov(camera: Camera) -> tuple[float, float]:
+    """tan of the half field of view in air, horizontal and vertical (from the sensor size)."""
+    return (camera.sensor_width_mm / (2.0 * camera.focal_length_mm),
+            camera.sensor_height_mm / (2.0 * camera.focal_length_mm))
+
+
+def air_directions(camera: Camera, px, py) -> np.ndarray:
+    """Unit directions in air (…, 3) behind the port for film positions ``px, py`` in [0, 1]."""
+    r, u, f = camera.frame()
+    tx, ty = tan_half_fov(camera)
+    x = (2.0 * np.asarray(px, float) - 1.0) * tx
+    y = (1.0 - 2.0 * np.asarray(py, float)) * ty
+    d = f + r * x[..., None] + u * y[..., None]
+    return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+def _through_port(camera: Camera, d_air: np.ndarray, n_out: float) -> tuple[np.ndarray, np.ndarray]:
+    """Origins on the port's outer surface and directions outside, for air directions ``d_air``."""
+    f = camera.frame()[2]
+    pupil = np.asarray(camera.position_m, float)
+    port = camera.port
+    if port.kind == "dome":
+        return pupil + d_air * float(port.radius_m + port.thickness_m), d_air
+    if port.kind != "flat":
+        raise ConfigError(f"unknown port kind {port.kind!r}", field="camera.port.kind", allowed="dome, flat")
+    cos_a = d_air @ f
+    trans = d_air - f * cos_a[..., None]  # tangential part, |trans| = sin θ_air
+    sin2_a = np.sum(trans * trans, axis=-1)
+    ng = float(port.glass_index)
+    cos_g = np.sqrt(np.maximum(1.0 - sin2_a / (ng * ng), 0.0))
+    cos_w = np.sqrt(np.maximum(1.0 - sin2_a / (n_out * n_out), 0.0))
+    d_glass = trans / ng + f * cos_g[..., None]
+    d_out = trans / n_out + f * cos_w[..., None]
+    p1 = pupil + d_air * (float(port.standoff_m) / cos_a)[..., None]
+    origin = p1 + d_glass * (float(port.thickness_m) / cos_g)[..., None]
+    return origin, d_out
+
+
+def camera_rays(camera: Camera, px, py, *, n_outside: float) -> tuple[np.ndarray, np.ndarray]:
+    """Rays leaving the port for film positions ``px``, ``py`` in [0, 1] (see module notes).
+
+    Parameters
+    ----------
+    camera
+        Pose, lens and port.
+    px, py
+        Film positions, any (equal) shape: 0 is the left / top edge, 1 the right / bottom.
+    n_outside
+        Refractive index outside the port (:func:`outside_index`).
+
+    Returns
+    -------
+    (origin, direction)
+        Arrays of shape ``shape(px) + (3,)``: points on the port's outer surface (m) and unit
+        directions in the outside medium.
+
+    Examples
+    --------
+    >>> from rigsim.scene.types import Camera, Port
+    >>> o, d = camera_rays(Camera(port=Port(kind="flat")), np.array(1.0), np.array(0.5), n_outside=1.34)
+    >>> bool(abs(np.degrees(np.arcsin(d[0])) + np.degrees(np.arcsin(np.sin(np.arctan(0.75)) / 1.34))) < 1e-9)
+    True
+    """
+    return _through_port(camera, air_directions(camera, px, py), float(n_outside))
+
+
+def pixel_rays(camera: Camera, width: int, height: int, *, n_outside: float,
+               step: float = 1.0) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Rays through a grid of film points ``step`` pixels apart (``step = 1``: the pixel centres).
+
+    Returns
+    -------
+    (origin, direction, col, row)
+        (m, n, 3) arrays and the pixel coordinates (centres at half-integers) of the grid's
+        columns and rows.
+    """
+    if step == 1.0:
+        col = np.arange(width) + 0.5
+        row = np.arange(height) + 0.5
+    else:
+        col = np.linspace(0.0, width, max(2, int(np.ceil(width / step)) + 1))
+        row = np.linspace(0.0, height, max(2, int(np.ceil(height / step)) + 1))
+    PX, PY = np.meshgrid(col / width, row / height)
+    o, d = camera_rays(camera, PX, PY, n_outside=n_outside)
+    return o, d, col, row
+
+
+def fov_water_deg(camera: Camera, n_outside: float = WATER_INDEX) -> float:
+    """Horizontal field of view outside the port (deg): unchanged by a dome, Snell-narrowed by a flat port."""
+    _, d = camera_rays(camera, np.array([0.0, 1.0]), np.array([0.5, 0.5]), n_outside=n_outside)
+    return float(np.degrees(np.arccos(np.clip(d[0] @ d[1], -1.0, 1.0))))
+
+
+def angular_pitch_rad(camera: Camera, width: int, height: int, *, n_outside: float) -> tuple[float, float]:
+    """Angle (rad) between neighbouring pixel rays outside the port at the image centre (x, y)."""
+    px = np.array([0.5, 0.5 + 1.0 / width, 0.5])
+    py = np.array([0.5, 0.5, 0.5 + 1.0 / height])
+    _, d = camera_rays(camera, px, py, n_outside=n_outside)
+    return (float(np.arccos(np.clip(d[0] @ d[1], -1, 1))), float(np.arccos(np.clip(d[0] @ d[2], -1, 1))))
+
+
+def project_points(camera: Camera, points_m, width: int, height: int, *, n_outside: float) -> np.ndarray:
+    """Pixel coordinates ``(col, row)`` of world points (NaN where not imaged): the inverse of :func:`camera_rays`.
+
+    Dome: central projection through the pupil.  Flat port: the in-air angle θ of the ray
+    that, refracted by :func:`camera_rays`' port model, passes through the point is found by
+    bisection on the ray's distance from the axis at the point's depth (monotonic in θ).
+
+    Parameters
+    ----------
+    points_m
+        World points (…, 3), m.
+    width, height
+        Image size (pixels).
+    n_outside
+        Refractive index outside the port.
+    """
+    right, up, fwd = camera.frame()
+    d = np.asarray(points_m, float) - np.asarray(camera.position_m, float)
+    x, y, z = d @ right, d @ up, d @ fwd
+    rho = np.hypot(x, y)
+    if camera.port.kind == "flat":
+        inner = camera.port.standoff_m + camera.port.thickness_m
+        lo = np.zeros_like(rho)
+        hi = np.full_like(rho, np.radians(89.999))
+        zz = np.where(z > inner, z, inner)
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            d_air = np.cos(mid)[..., None] * fwd + np.sin(mid)[..., None] * right  # radial plane: any azimuth
+            o, dw = _through_port(camera, d_air, float(n_outside))
+            rel = o - np.asarray(camera.position_m, float)
+            s = (zz - rel @ fwd) / (dw @ fwd)
+            too_far = rel @ right + s * (dw @ right) > rho
+            hi = np.where(too_far, mid, hi)
+            lo = np.where(too_far, lo, mid)
+        theta_a = np.where((z > inner) & (hi < np.radians(89.99)), 0.5 * (lo + hi), np.nan)
+    else:
+        theta_a = np.where(z > 0, np.arctan2(rho, np.where(z > 0, z, 1.0)), np.nan)
+    with np.errstate(invalid="ignore"):
+        r_mm = camera.focal_length_mm * np.tan(theta_a)
+        cphi = np.where(rho > 0, x / np.where(rho > 0, rho, 1), 1.0)
+        sphi = np.where(rho > 0, y / np.where(rho > 0, rho, 1), 0.0)
+    col = width * (0.5 + r_mm * cphi / camera.sensor_width_mm)
+    row = height * (0.5 - r_mm * sphi / camera.sensor_height_mm)
+    return np.stack([col, row], axis=-1)
+
+
+def port_transmittance(camera: Camera, px, py, *, n_outside: float) -> np.ndarray:
+    """Fresnel transmittance (0–1) of the port for the rays of film positions ``px, py``.
+
+    ``(1 − R_og)(1 − R_ga)``: unpolarised Fresnel reflectance of the outside→glass and
+    glass→air surfaces at the ray's angles (a dome: normal incidence on both; a flat port:
+    θ_w → θ_g and θ_g → θ_a by Snell); multiple reflections and absorption in the glass are
+    neglected.
+    """
+    d_air = air_directions(camera, px, py)
+    ng = float(camera.port.glass_index)
+    if camera.port.kind == "dome":
+        cos_air = np.ones(d_air.shape[:-1])
+    else:
+        cos_air = d_air @ camera.frame()[2]
+    sin2 = 1.0 - cos_air * cos_air
+    cos_g = np.sqrt(np.maximum(1.0 - sin2 / ng**2, 0.0))
+    cos_o = np.sqrt(np.maximum(1.0 - sin2 / float(n_outside) ** 2, 0.0))
+    r1 = fresnel_reflectance_unpolarised(cos_o, float(n_outside), ng)
+    r2 = fresnel_reflectance_unpolarised(cos_g, ng, 1.0)
+    return (1.0 - r1) * (1.0 - r2)
+
+
+def air_radiance_factor(camera: Camera, px, py, *, n_outside: float) -> np.ndarray:
+    """Radiance in air behind the port per unit radiance outside it: ``T_port / n_outside²``."""
+    return port_transmittance(camera, px, py, n_outside=n_outside) / float(n_outside) ** 2
+
+
+def port_reach_m(camera: Camera) -> float:
+    """Distance from the entrance pupil to the outer surface of the port along the axis (m).
+
+    Dome: radius + thickness (the dome is centred on the pupil); flat port: standoff +
+    thickness.
+    """
+    port = camera.port
+    if port.kind == "dome":
+        return port.radius_m + port.thickness_m
+    return port.standoff_m + port.thickness_m
+
+
+def world_radius_m(scene: Scene) -> float:
+    """Radius of the water sphere around the scene (m): ≥ 1 km and ≫ every distance in it.
+
+    The renderer's water volume and the fast engine's longest line of sight.
+    """
+    pts = [np.asarray(scene.camera.position_m, float)] + [np.asarray(l.position_m, float) for l in scene.lights]
+    ext = max([t.distance_m for t in scene.targets] + [float(np.linalg.norm(p)) for p in pts] + [1.0])
+    return float(max(1000.0, 100.0 * ext))
