@@ -73,7 +73,7 @@ def compute_case(spec: StudySpec, case: Case) -> dict:
             else case.target, "distance_m": case.distance_m, "depth_m": case.depth_m,
             "c_550_per_m": float(water.c_per_m(550.0)), "b_550_per_m": float(water.b_per_m(550.0)),
             "a_550_per_m": float(water.a_per_m(550.0)),
-            "width": rs.width, "height": rs.height, "spp": si.meta.get("spp") if rs.engine != "preview" else None,
+            "width": rs.width, "height": rs.height, "spp": si.render.spp,
             "mc_noise_p99": max((si.meta.get("noise_p99") or {}).values(), default=None),
             "engine": rs.engine, "integrator": rs.integrator if rs.engine != "preview" else None,
             "case_id": spec.case_id(case)}
