@@ -20,8 +20,9 @@ frame up to the horizon; pitch the camera down to look at it.
 
 Reflectances (Lambertian, tabulated 360–830 nm every 5 nm, :data:`REFLECTANCE_WAVELENGTHS_NM`):
 
-* ColorChecker: N. Ohta's measurements (data/targets/colorchecker_n_ohta.csv,
-  380–780 nm) **edge-held** to 360–830 nm; chart 279.4 × 215.9 mm, 24 patches of
+* ColorChecker: N. Ohta's measurements (as shipped with colour-science,
+  ``colour.SDS_COLOURCHECKERS["ColorChecker N Ohta"]``, 380–780 nm every 5 nm)
+  **edge-held** to 360–830 nm; chart 279.4 × 215.9 mm, 24 patches of
   40 mm on a 45 mm pitch (the patch pitch is our approximation of the X-Rite
   layout); the chart body is black (4 %).  Patches sit 0.5 mm proud of the body
   (as real patches do) so the two never share a plane.
@@ -114,15 +115,19 @@ def _hold(wl_table, values, wavelength_nm) -> np.ndarray:
 def reflectance_colorchecker_Ohta(wavelength_nm=REFLECTANCE_WAVELENGTHS_NM) -> dict[str, np.ndarray]:
     """ColorChecker patch reflectances (N. Ohta 1997), chart order, edge-held outside 380–780 nm.
 
+    The data are colour-science's ``SDS_COLOURCHECKERS["ColorChecker N Ohta"]`` (380–780 nm,
+    5 nm), interpolated linearly.
+
     Returns
     -------
     dict
         Patch name → reflectance (0–1) at ``wavelength_nm``; 24 entries in chart
         order (row-major from the top-left, ``dark skin`` … ``black 2 (1.5 D)``).
     """
-    t = load_table("targets/colorchecker_n_ohta.csv")
-    wl = t["wavelength_nm"]
-    return {n: _hold(wl, t[n], wavelength_nm) for n in t.columns if n != "wavelength_nm"}
+    import colour
+
+    sds = colour.SDS_COLOURCHECKERS["ColorChecker N Ohta"]
+    return {n: _hold(sd.wavelengths, sd.values, wavelength_nm) for n, sd in sds.items()}
 
 
 def reflectance_sand_assumed(wavelength_nm=REFLECTANCE_WAVELENGTHS_NM) -> np.ndarray:

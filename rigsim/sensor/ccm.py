@@ -39,16 +39,11 @@ def _grid(sensor) -> np.ndarray:
 
 
 def colorchecker_reflectances(wavelength_nm) -> np.ndarray:
-    """(24, n) ColorChecker N Ohta reflectances at ``wavelength_nm`` (nm)."""
-    import colour
+    """(24, n) ColorChecker N Ohta reflectances at ``wavelength_nm`` (nm), chart order, edge-held
+    (:func:`rigsim.scene.targets.reflectance_colorchecker_Ohta`)."""
+    from rigsim.scene.targets import reflectance_colorchecker_Ohta
 
-    sds = colour.SDS_COLOURCHECKERS["ColorChecker N Ohta"]
-    shape = colour.SpectralShape(380, 780, 5)
-    out = []
-    for sd in sds.values():
-        sd = sd.copy().align(shape)
-        out.append(np.interp(wavelength_nm, sd.wavelengths, sd.values))
-    return np.array(out)
+    return np.array(list(reflectance_colorchecker_Ohta(np.asarray(wavelength_nm, float)).values()))
 
 
 def illuminant_spd(name_or_values, wavelength_nm) -> np.ndarray:
