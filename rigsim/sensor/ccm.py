@@ -79,13 +79,12 @@ def colorchecker_reference_srgb(illuminant="D65", wavelength_nm=None) -> np.ndar
     chromatically adapted to D65 (Bradford)."""
     import colour
 
+    from rigsim.colorimetry import XYZ_from_bands
+
     wl = np.arange(380.0, 781.0, _STEP_NM) if wavelength_nm is None else np.asarray(wavelength_nm, float)
     e = illuminant_spd(illuminant, wl)
-    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
-    xbar = np.stack([np.interp(wl, cmfs.wavelengths, cmfs.values[:, i]) for i in range(3)], axis=-1)
     refl = np.vstack([colorchecker_reflectances(wl), np.ones_like(wl)])
-    xyz = (refl * e) @ xbar
-    xyz = xyz / xyz[-1, 1]
+    xyz = XYZ_from_bands(refl, wl, illuminant=e)  # perfect white: Y = 1
     white = xyz[-1]
     d65 = colour.xy_to_XYZ(colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"])
     xyz = colour.adaptation.chromatic_adaptation_VonKries(xyz, white, d65, transform="Bradford")
