@@ -19,7 +19,8 @@ Ohta, N. — ColorChecker reflectances as shipped with colour-science.
 
 from __future__ import annotations
 
-import functools
+import threading
+import weakref
 
 import numpy as np
 
@@ -109,8 +110,13 @@ def fit_ccm(camera_rgb_wb: np.ndarray, reference_srgb: np.ndarray, *, white_weig
     return m / m.sum(axis=1, keepdims=True)
 
 
-@functools.lru_cache(maxsize=64)
-def _ccm_cached(sensor_id: int, sensor, illuminant: str) -> np.ndarray:
+#: Fitted CCMs per sensor object and illuminant name; an entry goes when its sensor does
+#: (sensors are immutable, and compare by identity).
+_CCMS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_CCMS_LOCK = threading.Lock()
+
+
+def _fit_ccm_ColorChecker(sensor, illuminant: str) -> np.ndarray:
     rgb = colorchecker_camera_rgb(sensor, illuminant)
     wb = rgb * (rgb[-1, 1] / rgb[-1])  # perfect white → (1, 1, 1)
     ref = colorchecker_reference_srgb(illuminant)
@@ -120,12 +126,20 @@ def _ccm_cached(sensor_id: int, sensor, illuminant: str) -> np.ndarray:
 def ccm_ColorChecker(sensor, illuminant: str = "D65") -> np.ndarray:
     """CCM of ``sensor`` fitted on the ColorChecker under the CIE ``illuminant`` (cached).
 
+    The fit is kept, per illuminant, as long as the ``sensor`` object lives.
+
     Returns
     -------
     ndarray
         3×3 matrix: linear sRGB = M @ white-balanced camera RGB.
     """
-    return _ccm_cached(id(sensor), sensor, illuminant).copy()
+    with _CCMS_LOCK:
+        m = _CCMS.get(sensor, {}).get(illuminant)
+    if m is None:
+        m = _fit_ccm_ColorChecker(sensor, illuminant)
+        with _CCMS_LOCK:
+            _CCMS.setdefault(sensor, {})[illuminant] = m
+    return m.copy()
 
 
 def ccm_from_xyz_to_camera(xyz_to_cam: np.ndarray) -> np.ndarray:
