@@ -206,17 +206,14 @@ def _json_default(o):
 
 
 def xyz_from_spectral(spectral: np.ndarray, wavelength_nm, bandwidth_nm) -> np.ndarray:
-    """CIE 1931 2° tristimulus values ``∑ S(λ) x̄ȳz̄(λ) Δλ`` of a spectral array (..., bands) → (..., 3).
+    """CIE 1931 2° tristimulus values ``∑ S_b ∫_band x̄ȳz̄ dλ`` of a spectral array (..., bands) → (..., 3).
 
     In the unit of the input times nm (e.g. W·m⁻²·sr⁻¹ for radiance); multiply Y by
-    683 lm/W for luminance in cd/m².
+    683 lm/W for luminance in cd/m².  See :func:`rigsim.colorimetry.XYZ_from_bands`.
     """
-    import colour
+    from rigsim.colorimetry import XYZ_from_bands
 
-    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
-    wl = np.asarray(wavelength_nm, float)
-    m = np.stack([np.interp(wl, cmfs.wavelengths, cmfs.values[:, k], left=0, right=0) for k in range(3)], -1)
-    return np.asarray(spectral, float) @ (m * np.asarray(bandwidth_nm, float)[:, None])
+    return XYZ_from_bands(spectral, wavelength_nm, bandwidth_nm)
 
 
 def srgb_preview(image: SpectralImage, *, exposure_s: float = 1.0, layer: str | None = None,

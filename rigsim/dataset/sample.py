@@ -32,10 +32,11 @@ def reflectance_library(name: str) -> tuple[np.ndarray, np.ndarray, tuple[str, .
         msd = colour.characterisation.read_training_data_rawtoaces_v1()
         wl = np.asarray(msd.wavelengths, float)
         return wl, np.clip(np.asarray(msd.values, float).T, 0.0, 1.0), tuple(str(x) for x in msd.labels)
-    sds = colour.SDS_COLOURCHECKERS["ColorChecker N Ohta"]
+    from rigsim.scene.targets import reflectance_colorchecker_Ohta
+
     wl = np.arange(380.0, 781.0, 5.0)
-    vals = np.array([sd.copy().align(colour.SpectralShape(380, 780, 5)).values for sd in sds.values()])
-    return wl, np.clip(vals, 0, 1), tuple(sds.keys())
+    patches = reflectance_colorchecker_Ohta(wl)
+    return wl, np.clip(np.array(list(patches.values())), 0, 1), tuple(patches)
 
 
 def _uniform(rng, r):

@@ -173,6 +173,10 @@ def irradiance_clear_sky_ASTMG173(wavelength_nm, sun_zenith_deg: float) -> tuple
     return direct, diffuse
 
 
+#: Second radiation constant (m·K) the CIE D-series nominal CCTs were defined with (CIE 15:2018).
+_C2_D_SERIES_M_K = 1.4380e-2
+
+
 def irradiance_CIE_daylight(wavelength_nm, cct_K: float, *, e550_W_per_m2_nm: float,
                             sky_fraction: float) -> tuple[np.ndarray, np.ndarray]:
     """CIE daylight of correlated colour temperature ``cct_K`` as direct and diffuse plane irradiance.
@@ -183,6 +187,7 @@ def irradiance_CIE_daylight(wavelength_nm, cct_K: float, *, e550_W_per_m2_nm: fl
     and the sky at every wavelength (``f = sky_fraction``).
     """
     import colour
+    from colour.colorimetry.blackbody import CONSTANT_C2
 
     wl = as_wavelengths(wavelength_nm)
     cct = float(cct_K)
@@ -192,7 +197,9 @@ def irradiance_CIE_daylight(wavelength_nm, cct_K: float, *, e550_W_per_m2_nm: fl
     if not 0.0 <= sky_fraction <= 1.0:
         raise ConfigError(f"sky fraction must be in [0, 1], got {sky_fraction}", field="sky_fraction",
                           allowed="0 ≤ f ≤ 1")
-    xy = colour.temperature.CCT_to_xy_CIE_D(cct * 1.4388 / 1.4380)
+    # the D-series CCTs are nominal: the tables were computed with c2 = 1.4380e-2 m·K; with the
+    # ITS-90 value c2 = 1.4388e-2 m·K (colour's CONSTANT_C2) D65 "6500 K" is 6504 K (CIE 15:2018)
+    xy = colour.temperature.CCT_to_xy_CIE_D(cct * CONSTANT_C2 / _C2_D_SERIES_M_K)
     sd = colour.sd_CIE_illuminant_D_series(xy)
     lo, hi = sd.wavelengths[0], sd.wavelengths[-1]
     rel = interp_table(wl, sd.wavelengths, sd.values, name=f"CIE daylight D ({lo:g}–{hi:g} nm)")

@@ -90,12 +90,6 @@ class WaveField:
         n = np.stack([-hx, np.ones_like(hx), -hz], axis=-1)
         return n / np.linalg.norm(n, axis=-1, keepdims=True)
 
-    @property
-    def mean_square_slope(self) -> float:
-        """Σ A_i² k_i² / 2 (compare Cox–Munk σ²)."""
-        k = 2.0 * np.pi / self.wavelength_m
-        return float(np.sum(self.amplitude_m ** 2 * k ** 2) / 2.0)
-
 
 def sine_waves(amplitude_m, wavelength_m, direction_deg=0.0, phase_rad=0.0) -> WaveField:
     """Explicit waves (scalars or equal-length lists)."""

@@ -63,7 +63,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from rigsim.data import load_table
 from rigsim.errors import ConfigError
 from rigsim.light.spectra import LIGHT_WAVELENGTHS_NM
 
@@ -91,10 +90,17 @@ XENON_FLASH_EFFICACY_LM_S_PER_J = 30.0
 
 
 def photopic_V_CIE1924(wavelength_nm) -> np.ndarray:
-    """CIE 1924 photopic luminous efficiency V(λ) (dimensionless); 0 outside 360–830 nm."""
-    t = load_table("light/cie_1924_photopic_vlambda.csv")
+    """CIE 1924 photopic luminous efficiency V(λ) (dimensionless); 0 outside 360–830 nm.
+
+    The table is colour-science's
+    ``colour.colorimetry.SDS_LEFS_PHOTOPIC["CIE 1924 Photopic Standard Observer"]``
+    (CIE 018:2019, 360–830 nm every 1 nm), interpolated linearly.
+    """
+    from colour.colorimetry import SDS_LEFS_PHOTOPIC
+
+    v = SDS_LEFS_PHOTOPIC["CIE 1924 Photopic Standard Observer"]
     wl = np.asarray(wavelength_nm, float)
-    return np.interp(wl, t["wavelength_nm"], t["V"], left=0.0, right=0.0)
+    return np.interp(wl, v.wavelengths, v.values, left=0.0, right=0.0)
 
 
 def _positive(value: float, name: str, unit: str) -> float:

@@ -20,15 +20,16 @@ Named spectra (``SPECTRUM_METHODS``):
     Xenon flash "Vivitar 283" (ISETCam, data/light/xenon_flash_vivitar283_isetcam.csv),
     380–780 nm; zero below 380 nm (same UV-cut assumption), 780 nm value held to 830 nm.
 ``daylight-led``
-    CIE LED-B5, a phosphor-converted blue LED of CCT ≈ 6600 K (CIE 15:2018 Table 9.2),
-    380–780 nm; **zero outside** (a white LED emits nothing below its blue pump and
-    its phosphor tail is < 1 % of peak at 780 nm and falling).
+    CIE LED-B5, a phosphor-converted blue LED of CCT ≈ 6600 K (CIE 15:2018 Table 9.2, as
+    shipped with colour-science), 380–780 nm; **zero outside** (a white LED emits nothing
+    below its blue pump and its phosphor tail is < 1 % of peak at 780 nm and falling).
 ``warm-led``
     CIE LED-B2, a phosphor-converted blue LED of CCT ≈ 3000 K (CIE 15:2018), same
     treatment as ``daylight-led``.
 ``daylight-d65``
-    CIE standard illuminant D65, tabulated 300–830 nm (data/light/cie_d65.csv): no
-    extension needed.
+    CIE standard illuminant D65: colour-science's table (300–780 nm) continued to 830 nm by
+    colour-science's CIE D-series at the D65 chromaticity (:func:`spectrum_d65_CIE`), so it
+    covers Mitsuba's whole range.
 ``blackbody:T``
     Planck's law at temperature ``T`` kelvin (e.g. ``blackbody:5500``), analytic.
 a CSV file
@@ -70,10 +71,6 @@ __all__ = [
 
 #: The grid on which lights are tabulated for the renderer: 360–830 nm every 1 nm.
 LIGHT_WAVELENGTHS_NM = np.arange(MITSUBA_WAVELENGTH_RANGE_NM[0], MITSUBA_WAVELENGTH_RANGE_NM[1] + 0.5, 1.0)
-
-#: Planck's second radiation constant c2 = hc/k (m·K), CODATA 2018.
-_C2_M_K = 1.438776877e-2
-
 
 def _piecewise(wavelength_nm, table_nm, table_values, *, below: str, above: str,
                lo_valid: float | None = None, hi_valid: float | None = None) -> np.ndarray:
@@ -139,29 +136,52 @@ def spectrum_xenon_flash_Vivitar283(wavelength_nm) -> np.ndarray:
     return _piecewise(wavelength_nm, t["wavelength_nm"], t["value"], below="zero", above="hold")
 
 
-_LED_FILES = {"LED-B5": "light/cie_led_b5.csv", "LED-B2": "light/cie_led_b2.csv"}
+#: The CIE 15:2018 LED illuminants offered (names of colour-science's ``SDS_ILLUMINANTS``).
+_LED_ILLUMINANTS = ("LED-B5", "LED-B2")
 
 
 @_peak_one
 def spectrum_led_CIE2018(wavelength_nm, illuminant: str = "LED-B5") -> np.ndarray:
     """A CIE 15:2018 LED illuminant (``"LED-B5"`` ≈ 6600 K, ``"LED-B2"`` ≈ 3000 K), relative, peak 1.
 
-    Zero outside the tabulated 380–780 nm (phosphor-converted white LEDs emit
-    nothing below their blue pump; their red tail is < 3 % of peak at 780 nm).
+    The tables (380–780 nm, 5 nm) are colour-science's ``SDS_ILLUMINANTS["LED-B5"]`` and
+    ``["LED-B2"]`` (CIE 15:2018 Table 9.2).  Zero outside 380–780 nm (phosphor-converted
+    white LEDs emit nothing below their blue pump; their red tail is < 3 % of peak at 780 nm).
     """
-    try:
-        path = _LED_FILES[illuminant]
-    except KeyError:
-        raise unknown_name_error("CIE LED illuminant", illuminant, _LED_FILES) from None
-    t = load_table(path)
-    return _piecewise(wavelength_nm, t["wavelength_nm"], t["relative"], below="zero", above="zero")
+    import colour
+
+    if illuminant not in _LED_ILLUMINANTS:
+        raise unknown_name_error("CIE LED illuminant", illuminant, _LED_ILLUMINANTS)
+    sd = colour.SDS_ILLUMINANTS[illuminant]
+    return _piecewise(wavelength_nm, sd.wavelengths, sd.values, below="zero", above="zero")
+
+
+@functools.lru_cache(maxsize=1)
+def _d65_table() -> tuple[np.ndarray, np.ndarray]:
+    """CIE D65 300–830 nm every 5 nm: colour-science's table, extended past 780 nm by the D series."""
+    import colour
+    from colour.colorimetry.blackbody import CONSTANT_C2
+
+    table = colour.SDS_ILLUMINANTS["D65"]  # CIE 15:2018 / ISO 11664-2, 300–780 nm
+    # D65 is the D-series illuminant of nominal CCT 6500 K, i.e. 6500 × 1.4388/1.4380 K (CIE 15:2018)
+    xy = colour.temperature.CCT_to_xy_CIE_D(6500.0 * CONSTANT_C2 / 1.4380e-2)
+    series = colour.sd_CIE_illuminant_D_series(xy)  # S0, S1, S2 basis, 300–830 nm
+    tail = series.wavelengths > table.wavelengths[-1]
+    return (np.concatenate([table.wavelengths, series.wavelengths[tail]]),
+            np.concatenate([table.values, series.values[tail]]))
 
 
 @_peak_one
 def spectrum_d65_CIE(wavelength_nm) -> np.ndarray:
-    """CIE standard illuminant D65 (tabulated 300–830 nm), relative, peak 1 over 360–830 nm."""
-    t = load_table("light/cie_d65.csv")
-    return _piecewise(wavelength_nm, t["wavelength_nm"], t["relative"], below="zero", above="zero")
+    """CIE standard illuminant D65, relative, peak 1 over 360–830 nm.
+
+    300–780 nm: colour-science's ``SDS_ILLUMINANTS["D65"]`` (the CIE 15:2018 table); 785–830 nm:
+    colour-science's CIE D-series illuminant (``sd_CIE_illuminant_D_series``) at the D65
+    chromaticity (nominal 6500 K = 6504 K with c₂ = 1.4388e-2 m·K), which reproduces the
+    300–780 nm table to 7.2e-6 of its peak.  Zero outside 300–830 nm.
+    """
+    wl_table, values = _d65_table()
+    return _piecewise(wavelength_nm, wl_table, values, below="zero", above="zero")
 
 
 @_peak_one
@@ -175,17 +195,26 @@ def spectrum_blackbody_Planck(wavelength_nm, temperature_K: float) -> np.ndarray
     temperature_K
         Temperature (K), 500–100 000.
 
+    Returns
+    -------
+    numpy.ndarray
+        Relative spectral radiance (dimensionless), peak 1 over 360–830 nm.
+
     Notes
     -----
-    ``B(λ, T) ∝ λ⁻⁵ / (exp(c₂ / λT) − 1)`` with c₂ = 1.438 776 877e-2 m·K.
+    ``B(λ, T) ∝ λ⁻⁵ / (exp(c₂ / λT) − 1)``, evaluated by colour-science's
+    :func:`colour.colorimetry.planck_law` (λ in m, T in K) with its second radiation
+    constant c₂ = 1.4388e-2 m·K (``colour.colorimetry.blackbody.CONSTANT_C2``, the ITS-90 value
+    CIE 15:2018 uses for the Planckian radiator).
     """
+    from colour.colorimetry import planck_law
+
     t = float(temperature_K)
     if not (500.0 <= t <= 100_000.0):
         raise ConfigError(f"blackbody temperature must be 500–100000 K, got {t:g}",
                           field="spectrum", allowed="blackbody:T with 500 <= T <= 100000 (K)")
-    lam = as_wavelengths(wavelength_nm) * 1e-9
-    x = _C2_M_K / (lam * t)
-    return lam ** -5 / np.expm1(x) * 1e-30  # scale irrelevant (normalised), kept finite
+    wavelength_m = np.atleast_1d(as_wavelengths(wavelength_nm)) * 1e-9
+    return np.asarray(planck_law(wavelength_m, t), float).reshape(np.shape(as_wavelengths(wavelength_nm)))
 
 
 def _read_user_spectrum(path: Path) -> tuple[np.ndarray, np.ndarray]:

@@ -45,7 +45,8 @@ __all__ = ["photopic_luminance", "target_masks", "chart_delta_e_of_image", "scen
 
 
 def photopic_luminance(spectral: np.ndarray, wavelength_nm, bandwidth_nm) -> np.ndarray:
-    """Relative photopic luminance ∑ X(λ) ȳ(λ) Δλ of a spectral array (..., bands) (CIE 1931 2°)."""
+    """Relative photopic luminance ∑ X_b ∫_band ȳ dλ of a spectral array (..., bands) (CIE 1931 2°,
+    :func:`rigsim.colorimetry.XYZ_from_bands`)."""
     from rigsim.spectral_image import xyz_from_spectral
 
     return xyz_from_spectral(spectral, wavelength_nm, bandwidth_nm)[..., 1]
@@ -98,6 +99,7 @@ def chart_delta_e_of_image(linear_srgb: np.ndarray, masks: dict[str, np.ndarray]
     missing from ``masks``)."""
     import colour
 
+    from rigsim.colorimetry import XYZ_from_bands
     from rigsim.scene.targets import reflectance_colorchecker_Ohta
 
     wl = np.arange(380.0, 781.0, 5.0)
@@ -105,10 +107,9 @@ def chart_delta_e_of_image(linear_srgb: np.ndarray, masks: dict[str, np.ndarray]
     names = [n for n in refl if f"patch:{n}" in masks]
     if len(names) < 24:
         return float("nan")
-    illum = colour.SDS_ILLUMINANTS["D65"]
-    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
-    ref = np.array([colour.sd_to_XYZ(colour.SpectralDistribution(dict(zip(wl, refl[n]))), cmfs, illum) / 100.0
-                    for n in names])
+    d65 = colour.SDS_ILLUMINANTS["D65"]
+    ref = XYZ_from_bands(np.array([refl[n] for n in names]), wl,
+                         illuminant=np.interp(wl, d65.wavelengths, d65.values))  # white: Y = 1
     meas_rgb = np.array([linear_srgb[masks[f"patch:{n}"]].mean(axis=0) for n in names])
     meas = colour.RGB_to_XYZ(meas_rgb, colour.RGB_COLOURSPACES["sRGB"], apply_cctf_decoding=False)
     wi = next(i for i, n in enumerate(names) if n.startswith("white"))

@@ -95,14 +95,17 @@ def _mesh(key: str, spec: dict, bsdf, medium):
     (if not None) exterior medium; the vertices live in memory, not in the kernels."""
     V = np.asarray(spec["vertex_positions"], np.float32)
     F = np.asarray(spec["faces"], np.uint32)
+    N = spec.get("vertex_normals")  # optional (meshes from files): smooth shading normals
     props = mi.Properties()
     props["bsdf"] = bsdf
     if medium is not None:
         props["exterior"] = medium
-    mesh = mi.Mesh(key, len(V), len(F), props=props)
+    mesh = mi.Mesh(key, len(V), len(F), props=props, has_vertex_normals=N is not None)
     params = mi.traverse(mesh)
     params["vertex_positions"] = mi.Float(V.ravel())
     params["faces"] = mi.UInt32(F.ravel())
+    if N is not None:
+        params["vertex_normals"] = mi.Float(np.asarray(N, np.float32).ravel())
     params.update()
     return mesh
 

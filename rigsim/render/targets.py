@@ -13,22 +13,24 @@ into a ``mi.Mesh`` by :func:`rigsim.render.mitsuba_scene.build_mitsuba_scene`), 
 each target distance of a sweep compiled the renderer's kernels anew (2–9 s each); a mesh keeps
 its vertices in memory and one kernel serves every distance.  A rectangle is exactly two
 triangles; a disk is a regular polygon with :data:`DISK_SEGMENTS` sides whose area equals the
-disk's.  User meshes (``obj``/``ply``) are loaded by Mitsuba.
+disk's.  User meshes (``obj``/``ply``) are read by :func:`rigsim.scene.meshes.read_mesh` — the
+reader that places and scales them in the scene — and given to Mitsuba as the same arrays
+(:func:`file_mesh`), not through Mitsuba's own ``obj``/``ply`` loaders, so the two cannot disagree.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
 from rigsim.errors import ConfigError
 from rigsim.render.variant import mitsuba
+from rigsim.scene.meshes import read_mesh
 from rigsim.scene.targets import target_surfaces
 from rigsim.scene.types import Camera, Target
 
-__all__ = ["MitsubaSurface", "mitsuba_surfaces", "MESH_TYPE", "DISK_SEGMENTS", "flat_mesh"]
+__all__ = ["MitsubaSurface", "mitsuba_surfaces", "MESH_TYPE", "DISK_SEGMENTS", "flat_mesh", "file_mesh"]
 
 mi, dr = mitsuba()
 
@@ -91,6 +93,26 @@ def flat_mesh(kind: str, to_world) -> dict:
     return {"type": MESH_TYPE, "vertex_positions": V[:, :3].copy(), "faces": F}
 
 
+def file_mesh(path, to_world) -> dict:
+    """Mesh shape spec of a mesh file placed by the 4×4 ``to_world``, from the arrays of
+    :func:`rigsim.scene.meshes.read_mesh` (the reader the scene uses, so both see the same
+    triangles): ``{"type": MESH_TYPE, "vertex_positions": (n, 3), "faces": (m, 3),
+    "vertex_normals": (n, 3)}``.  The normals are the file's, else the angle-weighted ones
+    Mitsuba's own OBJ/PLY loader would compute (smooth shading, as before); they are mapped
+    by the inverse transpose of ``to_world``."""
+    mesh = read_mesh(path)
+    if len(mesh.faces) == 0:
+        raise ConfigError("mesh has no triangles to render", file=mesh.path,
+                          allowed="an OBJ/PLY with faces")
+    M = np.asarray(to_world, float)
+    V = mesh.vertices @ M[:3, :3].T + M[:3, 3]
+    N = mesh.vertex_normals() @ np.linalg.inv(M[:3, :3])   # (M⁻ᵀ n)ᵀ = nᵀ M⁻¹
+    length = np.linalg.norm(N, axis=1, keepdims=True)
+    N = np.divide(N, length, out=np.zeros_like(N), where=length > 0)
+    return {"type": MESH_TYPE, "vertex_positions": V, "faces": mesh.faces.astype(np.uint32),
+            "vertex_normals": N}
+
+
 def _check_target(t: Target, i: int) -> None:
     if not (np.isfinite(t.distance_m) and t.distance_m > 0):
         raise ConfigError(f"distance must be > 0 m, got {t.distance_m}", field=f"targets[{i}].distance_m",
@@ -117,11 +139,7 @@ def mitsuba_surfaces(camera: Camera, targets, *, flat_shapes: str = "mesh") -> l
                 shape = (flat_mesh(p.shape, p.matrix()) if flat_shapes == "mesh"
                          else {"type": p.shape, "to_world": _transform(p.to_world)})
             elif p.shape == "mesh":
-                ext = Path(p.mesh_path).suffix.lower()[1:]
-                if ext not in ("obj", "ply"):
-                    raise ConfigError(f"mesh must be .obj or .ply, got {p.mesh_path!r}",
-                                      field=f"targets[{ti}].mesh_path", allowed=".obj, .ply")
-                shape = {"type": ext, "filename": str(p.mesh_path), "to_world": _transform(p.to_world)}
+                shape = file_mesh(p.mesh_path, p.matrix())
             else:
                 raise ConfigError(f"unknown surface shape {p.shape!r}", field=f"targets[{ti}]")
             key = f"t{ti}_{len(out) + 1:03d}"

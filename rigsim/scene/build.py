@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from rigsim.errors import ConfigError, unknown_name_error
+from rigsim.scene.meshes import MESH_SUFFIXES
 from rigsim.scene.targets import (
     DEFAULT_SIZE_M,
     DEFAULT_TILT_DEG,
@@ -27,7 +28,7 @@ from rigsim.water.model import Water
 
 __all__ = ["build_scene", "make_target"]
 
-_MESH_SUFFIXES = (".obj", ".ply")
+_MESH_SUFFIXES = MESH_SUFFIXES
 
 
 def _reflectance(reflectance) -> tuple[tuple[float, ...], tuple[float, ...]]:

@@ -20,8 +20,9 @@ frame up to the horizon; pitch the camera down to look at it.
 
 Reflectances (Lambertian, tabulated 360–830 nm every 5 nm, :data:`REFLECTANCE_WAVELENGTHS_NM`):
 
-* ColorChecker: N. Ohta's measurements (data/targets/colorchecker_n_ohta.csv,
-  380–780 nm) **edge-held** to 360–830 nm; chart 279.4 × 215.9 mm, 24 patches of
+* ColorChecker: N. Ohta's measurements (as shipped with colour-science,
+  ``colour.SDS_COLOURCHECKERS["ColorChecker N Ohta"]``, 380–780 nm every 5 nm)
+  **edge-held** to 360–830 nm; chart 279.4 × 215.9 mm, 24 patches of
   40 mm on a 45 mm pitch (the patch pitch is our approximation of the X-Rite
   layout); the chart body is black (4 %).  Patches sit 0.5 mm proud of the body
   (as real patches do) so the two never share a plane.
@@ -43,8 +44,6 @@ without water (the clear ground truth keeps the in-water view).
 
 from __future__ import annotations
 
-import functools
-import struct
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
@@ -108,15 +107,19 @@ def _hold(wl_table, values, wavelength_nm) -> np.ndarray:
 def reflectance_colorchecker_Ohta(wavelength_nm=REFLECTANCE_WAVELENGTHS_NM) -> dict[str, np.ndarray]:
     """ColorChecker patch reflectances (N. Ohta 1997), chart order, edge-held outside 380–780 nm.
 
+    The data are colour-science's ``SDS_COLOURCHECKERS["ColorChecker N Ohta"]`` (380–780 nm,
+    5 nm), interpolated linearly.
+
     Returns
     -------
     dict
         Patch name → reflectance (0–1) at ``wavelength_nm``; 24 entries in chart
         order (row-major from the top-left, ``dark skin`` … ``black 2 (1.5 D)``).
     """
-    t = load_table("targets/colorchecker_n_ohta.csv")
-    wl = t["wavelength_nm"]
-    return {n: _hold(wl, t[n], wavelength_nm) for n in t.columns if n != "wavelength_nm"}
+    import colour
+
+    sds = colour.SDS_COLOURCHECKERS["ColorChecker N Ohta"]
+    return {n: _hold(sd.wavelengths, sd.values, wavelength_nm) for n, sd in sds.items()}
 
 
 def reflectance_sand_assumed(wavelength_nm=REFLECTANCE_WAVELENGTHS_NM) -> np.ndarray:
@@ -329,91 +332,12 @@ def target_surfaces(target: Target, camera: Camera) -> tuple[Surface, ...]:
 
 # ----------------------------------------------------------------------------- meshes
 
-@functools.lru_cache(maxsize=16)
-def _mesh_vertices_cached(path: str, mtime: float) -> np.ndarray:
-    p = Path(path)
-    suffix = p.suffix.lower()
-    try:
-        if suffix == ".obj":
-            verts = []
-            with p.open("r", encoding="utf-8", errors="replace") as fh:
-                for line in fh:
-                    if line.startswith("v "):
-                        verts.append([float(x) for x in line.split()[1:4]])
-            arr = np.array(verts, float).reshape(-1, 3)
-        elif suffix == ".ply":
-            arr = _ply_vertices(p)
-        else:
-            raise ConfigError(f"unsupported mesh format {suffix!r}", file=p, allowed=".obj or .ply")
-    except ConfigError:
-        raise
-    except (OSError, ValueError, IndexError, struct.error) as exc:
-        raise ConfigError(f"cannot read mesh: {exc}", file=p, allowed="a valid OBJ or PLY file") from None
-    if arr.shape[0] < 3 or not np.all(np.isfinite(arr)):
-        raise ConfigError("mesh has no usable vertices", file=p, allowed="an OBJ/PLY with >= 3 finite vertices")
-    return arr
-
-
-_PLY_TYPES = {"char": "i1", "int8": "i1", "uchar": "u1", "uint8": "u1", "short": "i2", "int16": "i2",
-              "ushort": "u2", "uint16": "u2", "int": "i4", "int32": "i4", "uint": "u4", "uint32": "u4",
-              "float": "f4", "float32": "f4", "double": "f8", "float64": "f8"}
-
-
-def _ply_vertices(p: Path) -> np.ndarray:
-    with p.open("rb") as fh:
-        if fh.readline().strip() != b"ply":
-            raise ValueError("not a PLY file (no 'ply' magic line)")
-        fmt, n_vert, props, in_vertex, before_vertex = None, 0, [], False, True
-        while True:
-            line = fh.readline()
-            if not line:
-                raise ValueError("PLY header has no end_header")
-            words = line.decode("ascii", "replace").split()
-            if not words:
-                continue
-            if words[0] == "format":
-                fmt = words[1]
-            elif words[0] == "element":
-                in_vertex = words[1] == "vertex"
-                if in_vertex:
-                    n_vert = int(words[2])
-                elif n_vert == 0:
-                    before_vertex = False
-            elif words[0] == "property" and in_vertex:
-                if words[1] == "list":
-                    raise ValueError("list property in the vertex element")
-                props.append((words[2], _PLY_TYPES[words[1]]))
-            elif words[0] == "end_header":
-                break
-        if not before_vertex:
-            raise ValueError("the vertex element must come first")
-        names = [n for n, _ in props]
-        if not {"x", "y", "z"} <= set(names):
-            raise ValueError("vertex element lacks x, y, z")
-        if fmt == "ascii":
-            rows = [fh.readline().split() for _ in range(n_vert)]
-            arr = np.array([[float(r[names.index(k)]) for k in "xyz"] for r in rows], float)
-        elif fmt in ("binary_little_endian", "binary_big_endian"):
-            end = "<" if fmt == "binary_little_endian" else ">"
-            dt = np.dtype([(n, end + t) for n, t in props])
-            buf = fh.read(dt.itemsize * n_vert)
-            if len(buf) < dt.itemsize * n_vert:
-                raise ValueError("file ends inside the vertex data")
-            rec = np.frombuffer(buf, dtype=dt, count=n_vert)
-            arr = np.stack([rec["x"], rec["y"], rec["z"]], axis=1).astype(float)
-        else:
-            raise ValueError(f"unknown PLY format {fmt!r}")
-    return arr
-
-
 def mesh_vertices(path: str | Path) -> np.ndarray:
-    """Vertex positions (n, 3) of an OBJ or PLY file; a missing/unreadable file is a ConfigError."""
-    p = Path(path)
-    if not p.exists():
-        raise ConfigError("mesh file not found", file=p, allowed="an existing .obj or .ply file")
-    if not p.is_file():
-        raise ConfigError("mesh path is not a file", file=p, allowed="an existing .obj or .ply file")
-    return _mesh_vertices_cached(str(p.resolve()), p.stat().st_mtime)
+    """Vertex positions (n, 3) of an OBJ or PLY file (read-only; :func:`rigsim.scene.meshes.read_mesh`,
+    the reader the renderer uses too); a missing/unreadable file is a ConfigError."""
+    from rigsim.scene.meshes import read_mesh
+
+    return read_mesh(path).vertices
 
 
 # ----------------------------------------------------------------------------- image mapping

@@ -10,13 +10,6 @@ import numpy as np
 from rigsim.water.model import Water
 
 
-def _vec(v) -> tuple[float, float, float]:
-    a = tuple(float(x) for x in v)
-    if len(a) != 3:
-        raise ValueError("expected 3 components")
-    return a  # type: ignore[return-value]
-
-
 def unit(v) -> np.ndarray:
     """Unit vector along ``v``."""
     a = np.asarray(v, float)

@@ -10,7 +10,8 @@ Public API::
 See the modules: :mod:`~rigsim.sensor.model` (sensor files), :mod:`~rigsim.sensor.optics`
 (camera equation), :mod:`~rigsim.sensor.noise` (EMVA 1288), :mod:`~rigsim.sensor.cfa`,
 :mod:`~rigsim.sensor.demosaic`, :mod:`~rigsim.sensor.white_balance`, :mod:`~rigsim.sensor.ccm`,
-:mod:`~rigsim.sensor.pipeline`, :mod:`~rigsim.sensor.dng`, :mod:`~rigsim.sensor.raw_io`.
+:mod:`~rigsim.sensor.pipeline`, :mod:`~rigsim.sensor.photograph` (expose + capture + develop with
+the designer's and the studies' fallbacks), :mod:`~rigsim.sensor.dng`, :mod:`~rigsim.sensor.raw_io`.
 """
 
 from rigsim.sensor.ccm import ccm_ColorChecker, delta_E_ColorChecker

@@ -19,7 +19,8 @@ Ohta, N. — ColorChecker reflectances as shipped with colour-science.
 
 from __future__ import annotations
 
-import functools
+import threading
+import weakref
 
 import numpy as np
 
@@ -39,16 +40,11 @@ def _grid(sensor) -> np.ndarray:
 
 
 def colorchecker_reflectances(wavelength_nm) -> np.ndarray:
-    """(24, n) ColorChecker N Ohta reflectances at ``wavelength_nm`` (nm)."""
-    import colour
+    """(24, n) ColorChecker N Ohta reflectances at ``wavelength_nm`` (nm), chart order, edge-held
+    (:func:`rigsim.scene.targets.reflectance_colorchecker_Ohta`)."""
+    from rigsim.scene.targets import reflectance_colorchecker_Ohta
 
-    sds = colour.SDS_COLOURCHECKERS["ColorChecker N Ohta"]
-    shape = colour.SpectralShape(380, 780, 5)
-    out = []
-    for sd in sds.values():
-        sd = sd.copy().align(shape)
-        out.append(np.interp(wavelength_nm, sd.wavelengths, sd.values))
-    return np.array(out)
+    return np.array(list(reflectance_colorchecker_Ohta(np.asarray(wavelength_nm, float)).values()))
 
 
 def illuminant_spd(name_or_values, wavelength_nm) -> np.ndarray:
@@ -84,13 +80,12 @@ def colorchecker_reference_srgb(illuminant="D65", wavelength_nm=None) -> np.ndar
     chromatically adapted to D65 (Bradford)."""
     import colour
 
+    from rigsim.colorimetry import XYZ_from_bands
+
     wl = np.arange(380.0, 781.0, _STEP_NM) if wavelength_nm is None else np.asarray(wavelength_nm, float)
     e = illuminant_spd(illuminant, wl)
-    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
-    xbar = np.stack([np.interp(wl, cmfs.wavelengths, cmfs.values[:, i]) for i in range(3)], axis=-1)
     refl = np.vstack([colorchecker_reflectances(wl), np.ones_like(wl)])
-    xyz = (refl * e) @ xbar
-    xyz = xyz / xyz[-1, 1]
+    xyz = XYZ_from_bands(refl, wl, illuminant=e)  # perfect white: Y = 1
     white = xyz[-1]
     d65 = colour.xy_to_XYZ(colour.CCS_ILLUMINANTS["CIE 1931 2 Degree Standard Observer"]["D65"])
     xyz = colour.adaptation.chromatic_adaptation_VonKries(xyz, white, d65, transform="Bradford")
@@ -115,8 +110,13 @@ def fit_ccm(camera_rgb_wb: np.ndarray, reference_srgb: np.ndarray, *, white_weig
     return m / m.sum(axis=1, keepdims=True)
 
 
-@functools.lru_cache(maxsize=64)
-def _ccm_cached(sensor_id: int, sensor, illuminant: str) -> np.ndarray:
+#: Fitted CCMs per sensor object and illuminant name; an entry goes when its sensor does
+#: (sensors are immutable, and compare by identity).
+_CCMS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+_CCMS_LOCK = threading.Lock()
+
+
+def _fit_ccm_ColorChecker(sensor, illuminant: str) -> np.ndarray:
     rgb = colorchecker_camera_rgb(sensor, illuminant)
     wb = rgb * (rgb[-1, 1] / rgb[-1])  # perfect white → (1, 1, 1)
     ref = colorchecker_reference_srgb(illuminant)
@@ -126,12 +126,20 @@ def _ccm_cached(sensor_id: int, sensor, illuminant: str) -> np.ndarray:
 def ccm_ColorChecker(sensor, illuminant: str = "D65") -> np.ndarray:
     """CCM of ``sensor`` fitted on the ColorChecker under the CIE ``illuminant`` (cached).
 
+    The fit is kept, per illuminant, as long as the ``sensor`` object lives.
+
     Returns
     -------
     ndarray
         3×3 matrix: linear sRGB = M @ white-balanced camera RGB.
     """
-    return _ccm_cached(id(sensor), sensor, illuminant).copy()
+    with _CCMS_LOCK:
+        m = _CCMS.get(sensor, {}).get(illuminant)
+    if m is None:
+        m = _fit_ccm_ColorChecker(sensor, illuminant)
+        with _CCMS_LOCK:
+            _CCMS.setdefault(sensor, {})[illuminant] = m
+    return m.copy()
 
 
 def ccm_from_xyz_to_camera(xyz_to_cam: np.ndarray) -> np.ndarray:

@@ -43,14 +43,25 @@ def channel_map(pattern: str, shape: tuple[int, int]) -> np.ndarray:
 
 
 def mosaic(rgb: np.ndarray, pattern: str) -> np.ndarray:
-    """Sample a (rows, cols, 3) image through the CFA: (rows, cols) mosaic."""
+    """Sample a (rows, cols, 3) image through the CFA: (rows, cols) mosaic, in the input's dtype.
+
+    A thin wrapper of :func:`colour_demosaicing.mosaicing_CFA_Bayer` (same pattern names),
+    which computes in float64; the result is cast back to ``rgb.dtype`` (exact: every output
+    value is one of the input's).  Non-finite values (NaN, ±inf) in a channel spread to the
+    sites of the other channels too (colour-demosaicing multiplies by 0/1 masks): inputs must
+    be finite.
+
+    Examples
+    --------
+    >>> mosaic(np.arange(12).reshape(2, 2, 3), "RGGB").tolist()
+    [[0, 4], [7, 11]]
+    """
+    from colour_demosaicing import mosaicing_CFA_Bayer
+
     rgb = np.asarray(rgb)
-    out = np.empty(rgb.shape[:2], rgb.dtype)
-    codes = pattern_codes(pattern)
-    for dy in (0, 1):
-        for dx in (0, 1):
-            out[dy::2, dx::2] = rgb[dy::2, dx::2, codes[dy, dx]]
-    return out
+    if rgb.ndim != 3 or rgb.shape[2] != 3:
+        raise ValueError(f"mosaic needs a (rows, cols, 3) image, got shape {rgb.shape}")
+    return np.asarray(mosaicing_CFA_Bayer(rgb, check_pattern(pattern))).astype(rgb.dtype, copy=False)
 
 
 def superpixel(cfa: np.ndarray, pattern: str) -> np.ndarray:

@@ -104,14 +104,6 @@ def electrons_per_radiance(wavelength_nm, bandwidth_nm, qe, *, lens: Lens, pixel
     return photons_per_radiance[:, None] * np.asarray(qe, float)
 
 
-def photons_per_pixel(radiance, wavelength_nm, bandwidth_nm, *, lens: Lens, pixel_area_m2: float,
-                      exposure_time_s: float) -> np.ndarray:
-    """Mean photons per pixel and band (rows, cols, bands) reaching the sensor."""
-    m = electrons_per_radiance(wavelength_nm, bandwidth_nm, np.ones((len(wavelength_nm), 1)),
-                               lens=lens, pixel_area_m2=pixel_area_m2, exposure_time_s=exposure_time_s)
-    return np.asarray(radiance, float) * m[:, 0]
-
-
 def port_factor_map(spectral_image) -> np.ndarray | float:
     """Radiance in air behind the port per unit in-water radiance the image reports, per pixel.
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import io
 import json
+import logging
 from pathlib import Path
 
 import numpy as np
@@ -21,6 +22,8 @@ from rigsim.sensor.dng import read_dng_tags, write_dng
 from rigsim.sensor.optics import Lens
 from rigsim.sensor.pipeline import Capture, Exposure
 from rigsim.sensor.white_balance import neutral_from_illuminant
+
+log = logging.getLogger(__name__)
 
 _RAW_ALLOWED = "a raw file LibRaw reads (DNG, CR2, CR3, NEF, ARW, RAF …) with a 2×2 Bayer CFA"
 
@@ -86,8 +89,10 @@ def read_exif(path: str | Path) -> dict:
                     v = _ratio(ex[name])
                     if np.isfinite(v) and v > 0:
                         out[key] = v
-    except Exception:  # noqa: BLE001 - not a TIFF container (CR3, RAF …): no tags
+    except tifffile.TiffFileError:  # not a TIFF container (CR3, RAF, CRW …): these have no TIFF tags
         return {}
+    except OSError as exc:
+        raise ConfigError(f"cannot read the file's tags: {exc.strerror or exc}", file=path) from None
     return out
 
 
@@ -141,10 +146,14 @@ def read_raw(path: str | Path) -> Capture:
     exposure = None
     tags = read_exif(path)
     if path.suffix.lower() == ".dng":
+        import tifffile
+
         try:
             tags.update(read_dng_tags(path))
-        except Exception:  # noqa: BLE001 - tags are optional extras
-            pass
+        except tifffile.TiffFileError as exc:
+            # LibRaw read the file, but tifffile cannot parse its TIFF structure: the DNG-only
+            # tags (exposure, UniqueCameraModel) are extras, the raw data and EXIF are read
+            log.warning("%s: DNG tags not read (%s); using the EXIF tags", path, exc)
     if "exposure_time_s" in tags and "iso" in tags:
         exposure = Exposure(float(tags["exposure_time_s"]), float(tags["iso"]),
                             Lens(f_number=float(tags.get("f_number", 4.0))))

@@ -11,7 +11,6 @@ import logging
 
 import numpy as np
 
-from rigsim.errors import ConfigError
 from rigsim.study.spec import Case, StudySpec, sensor_key
 
 log = logging.getLogger(__name__)
@@ -38,7 +37,8 @@ def compute_case(spec: StudySpec, case: Case) -> dict:
     from rigsim.scene.build import build_scene
     from rigsim.sensor import load_sensor
     from rigsim.sensor.optics import lens_for
-    from rigsim.sensor.pipeline import DevelopOptions, Exposure, auto_exposure, capture
+    from rigsim.sensor.photograph import photograph
+    from rigsim.sensor.pipeline import Exposure
 
     rig = load_rig(case.rig)
     water = load_water(case.water)
@@ -84,28 +84,11 @@ def compute_case(spec: StudySpec, case: Case) -> dict:
         sensor = load_sensor(sname)
         lens = lens_for(si)
         cs = spec.capture
-        if cs.exposure == "auto":
-            # spot-meter the chart (its white patch lands at the target level); whole frame otherwise
-            meter = masks.get("target") if target_kind == "colorchecker" else None
-            ex = auto_exposure(si, sensor, lens=lens, iso=cs.iso if cs.iso >= sensor.base_iso else None,
-                               percentile=cs.target_percentile, target=cs.target_level, mask=meter)
-        else:
-            ex = Exposure(cs.shutter_s, cs.iso, lens)
-        wb, wb_kw = cs.white_balance, {}
-        auto = wb == "auto"
-        if auto:
-            gray = next((k for k in masks if k.startswith("patch:neutral 5")), None)
-            wb, wb_kw = ("chart", {"mask": masks[gray]}) if gray and masks[gray].sum() >= 4 else ("grayworld", {})
-        try:
-            cap = capture(si, sensor, ex, seed=seed, develop=DevelopOptions(demosaic=cs.demosaic, white_balance=wb,
-                                                                           wb_kwargs=wb_kw))
-        except ConfigError:
-            if not (auto and wb == "chart"):
-                raise
-            # "auto": the neutral patch is clipped or lost in the water's light: gray world instead
-            wb, wb_kw = "grayworld", {}
-            cap = capture(si, sensor, ex, seed=seed, develop=DevelopOptions(demosaic=cs.demosaic, white_balance=wb,
-                                                                           wb_kwargs=wb_kw))
+        exposure = "auto" if cs.exposure == "auto" else Exposure(cs.shutter_s, cs.iso, lens)
+        shot = photograph(si, sensor, exposure=exposure, white_balance=cs.white_balance,
+                          masks=masks, target_kind=target_kind, iso=cs.iso, percentile=cs.target_percentile,
+                          target_level=cs.target_level, demosaic=cs.demosaic, seed=seed)
+        cap, ex, wb = shot.capture, shot.exposure, shot.white_balance
         row = dict(base)
         skey = sensor_key(sname)
         row.update({"sensor": skey, "iso": ex.iso, "exposure_time_s": ex.exposure_time_s,

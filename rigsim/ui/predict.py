@@ -120,7 +120,8 @@ class Conditions:
     white_balance
         One of :data:`WHITE_BALANCES`.
     depth_m
-        Camera depth (m): tints the water in the 3-D view (the renderer has no daylight yet).
+        Camera depth (m): tints the water in the 3-D view only; the prediction is lit by the
+        rig's lights alone (studies with ``depth_m`` add daylight at depth).
     """
 
     water: str = "coastal"
@@ -235,31 +236,32 @@ def measure(si, target_kind: str, *, cap=None, sensor=None, exposure=None) -> tu
 
 
 def _develop(si, rig: Rig, cond: Conditions, masks: dict, seed: int):
+    """Photograph the render with the conditions' sensor (:func:`rigsim.sensor.photograph.photograph`:
+    the studies' exposure and white-balance rules)."""
     from rigsim.sensor import load_sensor
     from rigsim.sensor.optics import lens_for
-    from rigsim.sensor.pipeline import DevelopOptions, Exposure, auto_exposure, capture
+    from rigsim.sensor.photograph import photograph
+    from rigsim.sensor.pipeline import Exposure
 
     sensor = load_sensor(cond.sensor)
     lens = lens_for(si)
-    if cond.exposure == "auto":
-        meter = masks.get("target") if cond.target == "colorchecker" else None
-        ex = auto_exposure(si, sensor, lens=lens, mask=meter)
-    elif cond.exposure == "manual":
-        ex = Exposure(float(cond.shutter_s), float(cond.iso), lens, flash_scale=float(cond.flash_scale))
+    if cond.exposure == "manual":
+        exposure = Exposure(float(cond.shutter_s), float(cond.iso), lens, flash_scale=float(cond.flash_scale))
+    elif cond.exposure == "auto":
+        exposure = "auto"
     else:
         raise ConfigError(f"unknown exposure mode {cond.exposure!r}", field="exposure", allowed="auto, manual")
-    wb, wb_kw = cond.white_balance, {}
-    if wb == "auto":
-        grey = next((k for k in masks if k.startswith("patch:neutral 5")), None)
-        wb, wb_kw = ("chart", {"mask": masks[grey]}) if grey and masks[grey].sum() >= 4 else ("grayworld", {})
-    elif wb not in WHITE_BALANCES:
-        raise ConfigError(f"unknown white balance {wb!r}", field="white_balance", allowed=", ".join(WHITE_BALANCES))
-    cap = capture(si, sensor, ex, seed=seed, develop=DevelopOptions(white_balance=wb, wb_kwargs=wb_kw))
+    if cond.white_balance not in WHITE_BALANCES:
+        raise ConfigError(f"unknown white balance {cond.white_balance!r}", field="white_balance",
+                          allowed=", ".join(WHITE_BALANCES))
+    shot = photograph(si, sensor, exposure=exposure, white_balance=cond.white_balance,
+                      masks=masks, target_kind=cond.target, seed=seed)
+    cap, ex = shot.capture, shot.exposure
     has_flash = "flash" in si.layers
-    exposure = {"shutter_s": ex.exposure_time_s, "iso": ex.iso, "f_number": lens.f_number,
-                "flash_scale": ex.flash_scale if has_flash else None, "white_balance": wb,
-                "sensor": sensor.name, "saturated_fraction": float(np.mean(cap.raw >= cap.white_level))}
-    return cap, sensor, ex, exposure
+    exposure_info = {"shutter_s": ex.exposure_time_s, "iso": ex.iso, "f_number": lens.f_number,
+                     "flash_scale": ex.flash_scale if has_flash else None, "white_balance": shot.white_balance,
+                     "sensor": sensor.name, "saturated_fraction": float(np.mean(cap.raw >= cap.white_level))}
+    return cap, sensor, ex, exposure_info
 
 
 # ----------------------------------------------------------------------------- public

@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from rigsim.colorimetry import XYZ_from_bands
 from rigsim.scene.types import Scene
 
 __all__ = ["Part", "scene_parts", "draw", "spectrum_to_srgb", "water_colour", "reflectance_colour"]
@@ -43,14 +44,11 @@ class Part:
 
 
 @functools.lru_cache(maxsize=1)
-def _cmfs_d65():
+def _d65() -> np.ndarray:
     import colour
 
-    cmfs = colour.MSDS_CMFS["CIE 1931 2 Degree Standard Observer"]
-    xyz = np.stack([np.interp(_WL, cmfs.wavelengths, cmfs.values[:, i]) for i in range(3)], axis=1)
     d65 = colour.SDS_ILLUMINANTS["D65"]
-    e = np.interp(_WL, d65.wavelengths, d65.values)
-    return xyz, e
+    return np.interp(_WL, d65.wavelengths, d65.values)
 
 
 def _xyz_to_srgb(xyz: np.ndarray) -> tuple[float, float, float]:
@@ -64,9 +62,8 @@ def _xyz_to_srgb(xyz: np.ndarray) -> tuple[float, float, float]:
 
 def spectrum_to_srgb(wavelength_nm, values, *, normalise: bool = True) -> tuple[float, float, float]:
     """Display colour of an emission spectrum (brightest channel = 1 if ``normalise``)."""
-    cm, _ = _cmfs_d65()
     s = np.interp(_WL, np.asarray(wavelength_nm, float), np.asarray(values, float), left=0, right=0)
-    xyz = s @ cm
+    xyz = XYZ_from_bands(s, _WL)
     if normalise:
         import colour
 
@@ -78,9 +75,8 @@ def spectrum_to_srgb(wavelength_nm, values, *, normalise: bool = True) -> tuple[
 
 def reflectance_colour(wavelength_nm, reflectance) -> tuple[float, float, float]:
     """sRGB of a reflectance under D65 (white = 1)."""
-    cm, e = _cmfs_d65()
     r = np.interp(_WL, np.asarray(wavelength_nm, float), np.asarray(reflectance, float))
-    xyz = (r * e) @ cm / (e @ cm[:, 1])
+    xyz = XYZ_from_bands(r, _WL, illuminant=_d65())
     return _xyz_to_srgb(xyz)
 
 
@@ -89,11 +85,10 @@ def water_colour(water, depth_m: float) -> tuple[float, float, float]:
     darkened with depth by the cube root of its luminance relative to just below the surface."""
     from rigsim.daylight.shortcut import ambient_light_kd
 
-    cm, _ = _cmfs_d65()
     depth = float(max(depth_m, 0.0))
     res = ambient_light_kd(water, _WL, [0.0, depth])
     lu = np.asarray(res["Lu"], float)
-    y0, y = float(lu[0] @ cm[:, 1]), float(lu[1] @ cm[:, 1])
+    y0, y = (float(v) for v in XYZ_from_bands(lu[:2], _WL)[:, 1])
     hue = spectrum_to_srgb(_WL, lu[1])
     k = 0.85 * (y / y0) ** (1 / 3) if y0 > 0 else 0.3
     return tuple(float(c * max(k, 0.08)) for c in hue)  # type: ignore[return-value]

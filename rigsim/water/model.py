@@ -166,13 +166,6 @@ class ConstituentWater(Water):
         _abs.absorption_pure_water(550.0, self.pure_water)  # validates the name
         _sca.scattering_pure_water(550.0, self.pure_water_scattering)
 
-    @classmethod
-    def original_code(cls, **kw) -> "ConstituentWater":
-        """The original code's absorption model: chl^0.724 detritus plus phytoplankton."""
-        kw.setdefault("detritus_exponent", _abs.DETRITUS_EXPONENT_ORIGINAL_CODE)
-        kw.setdefault("phytoplankton", True)
-        return cls(**kw)
-
     @functools.cached_property
     def wavelength_range_nm(self) -> tuple[float, float]:
         lo, hi = _abs.pure_water_absorption_range_nm(self.pure_water)

@@ -118,3 +118,16 @@ def test_bottom_fills_lower_half(rig):
     lay = target_layout(sc, 40, 30)
     frac = (lay.label_map > 0).mean(axis=1)
     assert np.all(frac[:15] == 0) and np.all(frac[16:] == 1)   # row 15 looks past the 50 m edge
+
+
+def test_colorchecker_is_colours_ohta_data_edge_held():
+    import colour
+
+    sds = colour.SDS_COLOURCHECKERS["ColorChecker N Ohta"]
+    wl = np.arange(380.0, 781.0, 5.0)
+    cc = reflectance_colorchecker_Ohta(wl)
+    assert list(cc) == list(sds)
+    for name, sd in sds.items():
+        assert cc[name] == pytest.approx(sd.values, abs=1e-15)
+    held = reflectance_colorchecker_Ohta(np.array([360.0, 830.0]))
+    assert held["dark skin"].tolist() == [sds["dark skin"].values[0], sds["dark skin"].values[-1]]

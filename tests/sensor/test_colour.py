@@ -79,3 +79,24 @@ def test_white_patch_and_manual():
         white_balance_gains(rgb, "greyworld")
     with pytest.raises(ConfigError, match="neutral patch"):
         white_balance_gains(rgb, "chart")
+
+
+def test_ccm_cache_is_per_sensor_object_and_weak():
+    import dataclasses
+    import gc
+
+    from rigsim.sensor import ccm as ccm_mod
+    from rigsim.sensor import load_sensor
+
+    s = load_sensor("sony_ilce-7rm2")
+    mix = np.array([[0.7, 0.0, 0.0], [0.3, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    twin = dataclasses.replace(s, qe=s.qe @ mix)      # another object, red leaking into green
+    a = ccm_mod.ccm_ColorChecker(s)
+    a[0, 0] = 99.0                                    # callers get a copy
+    assert ccm_mod.ccm_ColorChecker(s)[0, 0] != 99.0
+    assert not np.allclose(ccm_mod.ccm_ColorChecker(twin), ccm_mod.ccm_ColorChecker(s))
+    assert ccm_mod.ccm_ColorChecker(s, "A") is not None and set(ccm_mod._CCMS[s]) >= {"D65", "A"}
+    n = len(ccm_mod._CCMS)
+    del twin
+    gc.collect()
+    assert len(ccm_mod._CCMS) == n - 1               # the entry left with its sensor

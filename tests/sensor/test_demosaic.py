@@ -83,3 +83,31 @@ def test_cfa_helpers():
     assert sp[0, 0, 0] == pytest.approx(img[0, 0, 0]) and sp[0, 0, 2] == pytest.approx(img[1, 1, 2])
     with pytest.raises(ConfigError, match="unsupported CFA pattern"):
         pattern_codes("RGBW")
+
+
+@pytest.mark.parametrize("pattern", CFA_PATTERNS)
+@pytest.mark.parametrize("shape", [(6, 8), (5, 7), (1, 1)])
+@pytest.mark.parametrize("dtype", [np.float32, np.float64, np.uint16])
+def test_mosaic_is_colour_demosaicing_and_sampling(pattern, shape, dtype):
+    from colour_demosaicing import masks_CFA_Bayer, mosaicing_CFA_Bayer
+
+    rng = np.random.default_rng(7)
+    rgb = (rng.random((*shape, 3)) * 4000).astype(dtype)
+    out = mosaic(rgb, pattern.lower())
+    assert out.dtype == rgb.dtype and out.shape == shape
+    assert np.array_equal(out, mosaicing_CFA_Bayer(rgb, pattern))      # exactly colour-demosaicing's
+    codes = pattern_codes(pattern)                                      # and plain CFA sampling
+    for dy in (0, 1):
+        for dx in (0, 1):
+            assert np.array_equal(out[dy::2, dx::2], rgb[dy::2, dx::2, codes[dy, dx]])
+    # colour-demosaicing's masks name the same sites as our channel map
+    cmap = channel_map(pattern, shape)
+    for c, m in enumerate(masks_CFA_Bayer(shape, pattern)):
+        assert np.array_equal(m, cmap == c)
+
+
+def test_mosaic_rejects_bad_input():
+    with pytest.raises(ConfigError, match="CFA pattern"):
+        mosaic(np.zeros((2, 2, 3)), "RGBG")
+    with pytest.raises(ValueError, match="rows, cols, 3"):
+        mosaic(np.zeros((2, 2)), "RGGB")

@@ -81,3 +81,15 @@ def test_unreadable_raw_files_give_clear_errors(tmp_path):
     trunc.write_bytes(good.read_bytes()[:200])
     with pytest.raises(ConfigError, match="cannot read as a raw file"):
         read_raw(trunc)
+
+
+def test_read_exif_of_non_tiff_and_missing_files(tmp_path):
+    from rigsim.errors import ConfigError
+    from rigsim.sensor.raw_io import read_exif
+
+    cr3_like = tmp_path / "photo.cr3"
+    cr3_like.write_bytes(b"\x00\x00\x00\x18ftypcrx " + bytes(64))   # ISO-BMFF, not TIFF
+    assert read_exif(cr3_like) == {}
+    with pytest.raises(ConfigError, match="cannot read the file's tags") as e:
+        read_exif(tmp_path / "gone.arw")
+    assert "gone.arw" in str(e.value)
