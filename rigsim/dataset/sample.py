@@ -32,7 +32,7 @@ def reflectance_library(name: str) -> tuple[np.ndarray, np.ndarray, tuple[str, .
         msd = colour.characterisation.read_training_data_rawtoaces_v1()
         wl = np.asarray(msd.wavelengths, float)
         return wl, np.clip(np.asarray(msd.values, float).T, 0.0, 1.0), tuple(str(x) for x in msd.labels)
-    from rigsim.scene.targets import reflectance_colorchecker_Ohta
+    from rigsim.scene.reflectances import reflectance_colorchecker_Ohta
 
     wl = np.arange(380.0, 781.0, 5.0)
     patches = reflectance_colorchecker_Ohta(wl)

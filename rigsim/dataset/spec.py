@@ -215,7 +215,7 @@ def load_dataset_spec(path: str | Path) -> DatasetSpec:
     if "mesh" in kinds and not meshes:
         meshes = [str(Path(__file__).resolve().parents[2] / "data" / "meshes" / "rock.obj")]
     for i, m in enumerate(meshes):
-        from rigsim.scene.targets import mesh_vertices
+        from rigsim.scene.meshes import mesh_vertices
 
         try:
             mesh_vertices(m)

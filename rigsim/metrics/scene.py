@@ -100,7 +100,7 @@ def chart_delta_e_of_image(linear_srgb: np.ndarray, masks: dict[str, np.ndarray]
     import colour
 
     from rigsim.colorimetry import XYZ_from_bands
-    from rigsim.scene.targets import reflectance_colorchecker_Ohta
+    from rigsim.scene.reflectances import reflectance_colorchecker_Ohta
 
     wl = np.arange(380.0, 781.0, 5.0)
     refl = reflectance_colorchecker_Ohta(wl)

@@ -2,7 +2,7 @@
 
 Pure numpy, no Mitsuba.  Camera rays come from :mod:`rigsim.scene.optics` (the one
 camera and port model, shared with the renderer).  The surfaces are those of
-:func:`rigsim.scene.targets.target_surfaces`, numbered 1… across all targets in scene
+:func:`rigsim.scene.surfaces.target_surfaces`, numbered 1… across all targets in scene
 order, as the renderer numbers them; they are two-sided Lambertian reflectors.
 
 Mesh targets are not supported by the preview (it has no triangle intersector).
@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from rigsim.errors import ConfigError
-from rigsim.scene.targets import Surface, target_surfaces
+from rigsim.scene.surfaces import target_surfaces, Surface
 from rigsim.scene.types import Scene
 
 __all__ = ["SceneSurfaces", "scene_surfaces", "cast_rays", "occluded"]
@@ -28,7 +28,7 @@ class SceneSurfaces:
     Attributes
     ----------
     surfaces
-        The :class:`~rigsim.scene.targets.Surface` pieces.
+        The :class:`~rigsim.scene.surfaces.Surface` pieces.
     labels
         Object-id legend labels (``"target 0 colorchecker: dark skin"``), as the renderer's.
     center, u, v, normal

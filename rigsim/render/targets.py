@@ -1,7 +1,7 @@
 """Target surfaces as Mitsuba shapes.
 
 The geometry and reflectances of targets are defined once, in
-:mod:`rigsim.scene.targets` (``target_surfaces(target, camera)``: placement,
+:mod:`rigsim.scene.surfaces` (``target_surfaces(target, camera)``: placement,
 ColorChecker layout, reflectance data, object ids), so that the renderer, the
 preview and the metrics' target layouts agree.  This module only turns those
 surfaces into Mitsuba shapes and numbers them across all targets (object id 1… in scene
@@ -27,7 +27,7 @@ import numpy as np
 from rigsim.errors import ConfigError
 from rigsim.render.variant import mitsuba
 from rigsim.scene.meshes import read_mesh
-from rigsim.scene.targets import target_surfaces
+from rigsim.scene.surfaces import target_surfaces
 from rigsim.scene.types import Camera, Target
 
 __all__ = ["MitsubaSurface", "mitsuba_surfaces", "MESH_TYPE", "DISK_SEGMENTS", "flat_mesh", "file_mesh"]

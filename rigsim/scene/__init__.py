@@ -13,7 +13,8 @@ separate scalar.
 """
 
 from rigsim.scene.build import build_scene
-from rigsim.scene.targets import target_layout, target_surfaces
+from rigsim.scene.layout import target_layout
+from rigsim.scene.surfaces import target_surfaces
 from rigsim.scene.types import (
     BeamPattern,
     Camera,

@@ -1,8 +1,8 @@
 """Assemble a :class:`~rigsim.scene.types.Scene` from a rig, a water, a target and a distance.
 
-Placement conventions and reflectances are in :mod:`rigsim.scene.targets`;
-the renderer gets the explicit geometry with
-:func:`rigsim.scene.targets.target_surfaces`.
+Placement conventions are in :mod:`rigsim.scene.surfaces`, reflectances in
+:mod:`rigsim.scene.reflectances`; the engines get the explicit geometry with
+:func:`rigsim.scene.surfaces.target_surfaces`.
 """
 
 from __future__ import annotations
@@ -13,16 +13,10 @@ from pathlib import Path
 import numpy as np
 
 from rigsim.errors import ConfigError, unknown_name_error
-from rigsim.scene.meshes import MESH_SUFFIXES
-from rigsim.scene.targets import (
-    DEFAULT_SIZE_M,
-    DEFAULT_TILT_DEG,
-    REFLECTANCE_WAVELENGTHS_NM,
-    TARGET_KINDS,
-    mesh_vertices,
-    reflectance_from_csv,
-)
+from rigsim.scene.meshes import MESH_SUFFIXES, mesh_vertices
 from rigsim.scene.optics import port_reach_m
+from rigsim.scene.reflectances import REFLECTANCE_WAVELENGTHS_NM, reflectance_from_csv
+from rigsim.scene.surfaces import DEFAULT_SIZE_M, DEFAULT_TILT_DEG, TARGET_KINDS
 from rigsim.scene.types import Daylight, Rig, Scene, Target
 from rigsim.water.model import Water
 

@@ -1,6 +1,6 @@
 """Triangle meshes read from OBJ and PLY files (PyVista/VTK), once, for every consumer.
 
-The scene (placement and scale of a mesh target, :mod:`rigsim.scene.targets`), the
+The scene (placement and scale of a mesh target, :mod:`rigsim.scene.surfaces`), the
 renderer (:mod:`rigsim.render.targets` builds its ``mi.Mesh`` from these arrays) and the
 configuration checks all read a mesh file through :func:`read_mesh`, so they see the
 same triangles.
@@ -33,7 +33,7 @@ import numpy as np
 
 from rigsim.errors import ConfigError
 
-__all__ = ["MESH_SUFFIXES", "TriangleMesh", "read_mesh"]
+__all__ = ["MESH_SUFFIXES", "TriangleMesh", "read_mesh", "mesh_vertices"]
 
 #: File types :func:`read_mesh` reads.
 MESH_SUFFIXES = (".obj", ".ply")
@@ -239,3 +239,9 @@ def read_mesh(path: str | Path) -> TriangleMesh:
     if p.suffix.lower() not in MESH_SUFFIXES:
         raise ConfigError(f"unsupported mesh format {p.suffix.lower()!r}", file=p, allowed=".obj or .ply")
     return _read_cached(str(p.resolve()), p.stat().st_mtime)
+
+
+def mesh_vertices(path: str | Path) -> np.ndarray:
+    """Vertex positions (n, 3) of an OBJ or PLY file (:func:`read_mesh`'s, read-only); a
+    missing/unreadable file is a ConfigError."""
+    return read_mesh(path).vertices

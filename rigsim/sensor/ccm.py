@@ -41,8 +41,8 @@ def _grid(sensor) -> np.ndarray:
 
 def colorchecker_reflectances(wavelength_nm) -> np.ndarray:
     """(24, n) ColorChecker N Ohta reflectances at ``wavelength_nm`` (nm), chart order, edge-held
-    (:func:`rigsim.scene.targets.reflectance_colorchecker_Ohta`)."""
-    from rigsim.scene.targets import reflectance_colorchecker_Ohta
+    (:func:`rigsim.scene.reflectances.reflectance_colorchecker_Ohta`)."""
+    from rigsim.scene.reflectances import reflectance_colorchecker_Ohta
 
     return np.array(list(reflectance_colorchecker_Ohta(np.asarray(wavelength_nm, float)).values()))
 

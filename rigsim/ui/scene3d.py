@@ -4,7 +4,7 @@
 :class:`Part` objects — housing and port, the camera's field of view in water,
 each light as a cone whose half-angle is half its beam angle (capped at 80° for
 drawing) along its aim, the arms, the target's explicit surfaces
-(:func:`rigsim.scene.targets.target_surfaces`) in their colours, the water volume
+(:func:`rigsim.scene.surfaces.target_surfaces`) in their colours, the water volume
 tinted by the water's colour at the chosen depth, and distance markers along the
 lens axis — and :func:`draw` puts them in a :class:`pyvista.Plotter`, replacing
 the previous parts by name.
@@ -115,7 +115,7 @@ def scene_parts(scene: Scene, *, water_rgb: tuple[float, float, float] | None = 
     import pyvista as pv
 
     from rigsim.scene.optics import fov_water_deg
-    from rigsim.scene.targets import target_surfaces
+    from rigsim.scene.surfaces import target_surfaces
 
     cam = scene.camera
     right, up, fwd = cam.frame()

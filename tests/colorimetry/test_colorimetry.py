@@ -5,7 +5,7 @@ import pytest
 
 from rigsim.colorimetry import OBSERVER, XYZ_from_bands, cmf_band_matrix
 from rigsim.errors import ConfigError
-from rigsim.scene.targets import reflectance_colorchecker_Ohta
+from rigsim.scene.reflectances import reflectance_colorchecker_Ohta
 from rigsim.spectral_image import xyz_from_spectral
 
 colour = pytest.importorskip("colour")

@@ -14,7 +14,7 @@ from rigsim.render.targets import MESH_TYPE, file_mesh
 from rigsim.render.variant import mitsuba
 from rigsim.scene.build import build_scene
 from rigsim.scene.meshes import read_mesh
-from rigsim.scene.targets import target_surfaces
+from rigsim.scene.surfaces import target_surfaces
 from rigsim.scene.types import Camera, Rig
 
 mi, dr = mitsuba()

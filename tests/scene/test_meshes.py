@@ -10,7 +10,7 @@ import pytest
 from rigsim.data import DATA_DIR
 from rigsim.errors import ConfigError
 from rigsim.scene.meshes import read_mesh
-from rigsim.scene.targets import mesh_vertices
+from rigsim.scene.meshes import mesh_vertices
 
 pv = pytest.importorskip("pyvista")
 

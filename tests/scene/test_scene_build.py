@@ -9,7 +9,8 @@ from rigsim.config import load_rig
 from rigsim.errors import ConfigError
 from rigsim.scene.build import build_scene, make_target
 from rigsim.scene.optics import port_reach_m
-from rigsim.scene.targets import REFLECTANCE_WAVELENGTHS_NM, TARGET_KINDS, target_surfaces
+from rigsim.scene.reflectances import REFLECTANCE_WAVELENGTHS_NM
+from rigsim.scene.surfaces import TARGET_KINDS, target_surfaces
 from rigsim.scene.types import Camera, Port, Rig, Scene, Target
 
 RIGS = Path(__file__).resolve().parents[2] / "rigs"

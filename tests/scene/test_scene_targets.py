@@ -4,15 +4,9 @@ import numpy as np
 import pytest
 
 from rigsim.scene.build import build_scene
-from rigsim.scene.targets import (
-    COLORCHECKER_HEIGHT_M,
-    COLORCHECKER_WIDTH_M,
-    REFLECTANCE_WAVELENGTHS_NM,
-    reflectance_colorchecker_Ohta,
-    reflectance_sand_assumed,
-    target_layout,
-    target_surfaces,
-)
+from rigsim.scene.layout import target_layout
+from rigsim.scene.reflectances import REFLECTANCE_WAVELENGTHS_NM, reflectance_sand_assumed, reflectance_colorchecker_Ohta
+from rigsim.scene.surfaces import COLORCHECKER_HEIGHT_M, COLORCHECKER_WIDTH_M, target_surfaces
 from rigsim.scene.optics import pixel_rays, project_points
 from rigsim.scene.types import Camera, Port, Rig
 
