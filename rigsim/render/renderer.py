@@ -68,19 +68,12 @@ def _check_coverage(scene: Scene, lo: float, hi: float, centres: np.ndarray | No
         # the IOPs must be defined at every band centre; within a band beyond the water's
         # table (e.g. 700-705 nm for a table ending at 700 nm) the end value is held
         scene.water.check_range([lo, hi] if centres is None else [float(centres[0]), float(centres[-1])])
-    for light in scene.lights:
+    for light in scene.lights:  # kind, table shape and values: checked by Light itself
         wl = np.asarray(light.wavelength_nm, float)
-        if wl.size == 0 or len(light.axial_intensity) != wl.size:
-            raise ConfigError(f"light {light.name!r}: intensity table is empty or mismatched",
-                              field=f"lights.{light.name}")
         if wl.size > 1 and (wl[0] > lo + 1e-9 or wl[-1] < hi - 1e-9):
             raise ConfigError(f"light {light.name!r} spectrum covers {wl[0]:g}–{wl[-1]:g} nm, the bands need "
                               f"{lo:g}–{hi:g} nm", field=f"lights.{light.name}",
                               allowed=f"a spectrum covering {lo:g}–{hi:g} nm")
-        a = np.asarray(light.axial_intensity, float)
-        if not np.all(np.isfinite(a)) or np.any(a < 0):
-            raise ConfigError(f"light {light.name!r}: intensities must be finite and >= 0",
-                              field=f"lights.{light.name}")
     for i, t in enumerate(scene.targets):
         if t.reflectance:
             wl = np.asarray(t.reflectance_wavelength_nm, float)
@@ -373,11 +366,7 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
                       "pixels will not be square", RuntimeWarning, stacklevel=2)
 
     groups = {"continuous": [l for l in scene.lights if l.kind == "continuous"],
-              "strobe": [l for l in scene.lights if l.kind == "strobe"]}
-    for l in scene.lights:
-        if l.kind not in groups:
-            raise ConfigError(f"light {l.name!r}: kind must be strobe or continuous, got {l.kind!r}",
-                              field=f"lights.{l.name}.kind")
+              "strobe": [l for l in scene.lights if l.kind == "strobe"]}  # Light allows no other kind
     water = scene.water is not None
     modes = ["full"]
     if water:

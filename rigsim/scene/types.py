@@ -21,7 +21,7 @@ rigsim.errors.ConfigError: BeamPattern.beam_angle_deg: out of range: 400 (allowe
 from __future__ import annotations
 
 from dataclasses import field
-from typing import Annotated, Literal
+from typing import Annotated, Literal, get_args
 
 import numpy as np
 from pydantic import Field, model_validator
@@ -32,14 +32,18 @@ from rigsim.water.model import Water
 __all__ = ["Port", "Camera", "BeamPattern", "Light", "Rig", "Target", "Daylight", "Scene", "unit",
            "TARGET_KIND_NAMES", "LIGHT_KINDS", "DAYLIGHT_MODELS", "WAVE_KINDS"]
 
+TargetKind = Literal["colorchecker", "black-disk", "white-disk", "slanted-edge", "bottom", "mesh"]
+LightKind = Literal["strobe", "continuous"]
+DaylightModel = Literal["kd", "monte-carlo"]
+WaveKind = Literal["flat", "sines", "pierson-moskowitz"]
 #: Kinds of :class:`Target` (``mesh`` needs ``mesh_path``).
-TARGET_KIND_NAMES = ("colorchecker", "black-disk", "white-disk", "slanted-edge", "bottom", "mesh")
+TARGET_KIND_NAMES: tuple[str, ...] = get_args(TargetKind)
 #: Kinds of :class:`Light`.
-LIGHT_KINDS = ("strobe", "continuous")
+LIGHT_KINDS: tuple[str, ...] = get_args(LightKind)
 #: Daylight models of :class:`Daylight` (``kd`` fast, ``monte-carlo`` through the water column).
-DAYLIGHT_MODELS = ("kd", "monte-carlo")
+DAYLIGHT_MODELS: tuple[str, ...] = get_args(DaylightModel)
 #: Sea surfaces of :class:`Daylight` for caustics.
-WAVE_KINDS = ("flat", "sines", "pierson-moskowitz")
+WAVE_KINDS: tuple[str, ...] = get_args(WaveKind)
 
 _Metres = Annotated[Real, Unit("m")]
 _PositiveM = Annotated[Real, Field(gt=0), Unit("m")]
@@ -241,7 +245,7 @@ class Light:
     """
 
     name: str
-    kind: Literal["strobe", "continuous"]
+    kind: LightKind
     position_m: Vec3
     aim: Direction
     beam: BeamPattern
@@ -330,7 +334,7 @@ class Target:
         then about its own horizontal axis (deg).
     """
 
-    kind: Literal["colorchecker", "black-disk", "white-disk", "slanted-edge", "bottom", "mesh"]
+    kind: TargetKind
     distance_m: _PositiveM
     size_m: _PositiveM = 0.3
     mesh_path: str | None = None
@@ -383,10 +387,10 @@ class Daylight:
     sun_azimuth_deg: _Degrees = 0.0
     surface_irradiance_wavelength_nm: _Wavelengths = ()
     surface_irradiance: float_table(nonnegative=True, unit="W/(m²·nm)") = ()
-    model: Literal["kd", "monte-carlo"] = "kd"
+    model: DaylightModel = "kd"
     sky: str = "cie"
     photons: Annotated[Int, Field(ge=100)] = 20_000
-    waves: Literal["flat", "sines", "pierson-moskowitz"] = "flat"
+    waves: WaveKind = "flat"
     wind_speed_m_s: Annotated[Real, Field(gt=0), Unit("m/s")] = 5.0
     wave_amplitude_m: _NonNegativeM = 0.05
     wave_length_m: _PositiveM = 1.0
