@@ -538,7 +538,7 @@ def _allowed(tp: Any, meta: list) -> str | None:
         text = _range(meta)
     if text and unit:
         return f"{text} ({unit})"
-    return text or unit
+    return text or (f"a number ({unit})" if unit else None)
 
 
 def _what(tp: Any) -> str:
@@ -622,7 +622,8 @@ def config_error(exc: ValidationError, schema: Any, *, file: str | Path | None =
     elif kind == "too_long":
         message = f"takes at most {ctx.get('max_length')} entries, got {ctx.get('actual_length')}"
     elif kind == "unexpected_positional_argument":
-        message = "too many positional arguments"
+        n = len(_fields_of(schema) or ())
+        message, field_or_none, allowed = "too many positional arguments", prefix or None, f"at most {n}"
     else:
         message = re.sub(r"^(Value|Assertion) error, ", "", err["msg"])
     message = " ".join(str(message).split())

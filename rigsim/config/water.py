@@ -75,7 +75,9 @@ def _iop_value(v: Any) -> float | str:
     if isinstance(v, bool) or not isinstance(v, numbers.Real):
         raise invalid(f"must be a number or a CSV file name, got {v!r}",
                       allowed=">= 0 1/m, or a CSV of wavelength_nm,value")
-    if not math.isfinite(v) or v < 0:
+    if not math.isfinite(v):
+        raise invalid(f"must be finite, got {v!r}", allowed=">= 0 1/m")
+    if v < 0:
         raise invalid(f"must be >= 0, got {v!r}", allowed=">= 0 1/m")
     return float(v)
 
