@@ -22,6 +22,13 @@ or by explicit inherent optical properties::
     wavelength_nm = 532           # optional: pose the problem at these wavelengths only
 
 Relative CSV paths resolve against the TOML file's folder.
+
+The schema is :class:`WaterFile` / :class:`WaterTable` (pydantic, read by
+:func:`rigsim.config.schema.read_toml` like every config file); preset names and
+command-line overrides go through the same table model, so ``--chl -2`` and
+``chl_mg_per_m3 = -2`` give the same message.  The water classes themselves
+(:class:`~rigsim.water.model.ConstituentWater`, :class:`~rigsim.water.model.TabulatedWater`)
+check their values when built.
 """
 
 from __future__ import annotations

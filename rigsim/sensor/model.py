@@ -72,7 +72,7 @@ _SOURCE_EXTRA = ("spectral", "resolution", "pixel_pitch_um", "black_level_dn", "
 
 def _resolution(v: Any) -> tuple[int, int]:
     if not isinstance(v, (list, tuple)) or len(v) != 2 or any(
-            isinstance(x, bool) or not isinstance(x, numbers.Integral) for x in v):
+            isinstance(x, bool) or not isinstance(x, numbers.Real) or not float(x).is_integer() for x in v):
         raise invalid(f"must be [rows, cols], two whole numbers, got {v!r}", allowed="[rows, cols], each >= 2")
     if v[0] < 2 or v[1] < 2:
         raise invalid(f"rows and cols must be >= 2, got {list(v)}", allowed="[rows, cols], each >= 2")
