@@ -333,7 +333,13 @@ def _with_quick(doc: dict, path: Path) -> StudyFile:
     sweep = dict(doc["sweep"])
     for k, v in quick.items():
         (sweep if k in sweep_keys else render)[k] = v
-    return validate(StudyFile, {**doc, "sweep": sweep, "render": render, "quick": quick}, file=path)
+    try:
+        return validate(StudyFile, {**doc, "sweep": sweep, "render": render, "quick": quick}, file=path)
+    except ConfigError as exc:  # a check across keys that failed because of a [quick] value: say so
+        key = (exc.field or "").split(".", 1)[-1]
+        if key in quick:
+            raise ConfigError(exc.message, file=path, field=f"quick.{key}", allowed=exc.allowed) from None
+        raise
 
 
 def load_study(path: str | Path, *, quick: bool = False) -> StudySpec:
