@@ -22,16 +22,27 @@ or by explicit inherent optical properties::
     wavelength_nm = 532           # optional: pose the problem at these wavelengths only
 
 Relative CSV paths resolve against the TOML file's folder.
+
+The schema is :class:`WaterFile` / :class:`WaterTable` (pydantic, read by
+:func:`rigsim.config.schema.read_toml` like every config file); preset names and
+command-line overrides go through the same table model, so ``--chl -2`` and
+``chl_mg_per_m3 = -2`` give the same message.  The water classes themselves
+(:class:`~rigsim.water.model.ConstituentWater`, :class:`~rigsim.water.model.TabulatedWater`)
+check their values when built.
 """
 
 from __future__ import annotations
 
+import dataclasses
+import math
+import numbers
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any, ClassVar
 
 import numpy as np
+from pydantic import BeforeValidator, Field, model_validator
 
-from rigsim.config.tomlfile import check_keys, get_number, read_toml
+from rigsim.config.schema import Bool, FileModel, Real, invalid, read_toml, validate
 from rigsim.data import read_csv_table
 from rigsim.errors import ConfigError, RigsimError
 from rigsim.water.model import ConstituentWater, Spectrum1D, TabulatedWater, Water
@@ -49,7 +60,8 @@ from rigsim.water.phase import (
 from rigsim.water.presets import preset
 from rigsim.water.scattering import scattering_pure_water
 
-__all__ = ["load_water", "water_from_table", "phase_from_spec", "CONSTITUENT_ALIASES", "PHASE_SPECS"]
+__all__ = ["load_water", "water_from_table", "phase_from_spec", "WaterFile", "WaterTable", "CONSTITUENT_ALIASES",
+           "PHASE_SPECS"]
 
 #: Canonical constituent keys and the original code's names accepted as aliases.
 CONSTITUENT_ALIASES = {
@@ -61,6 +73,100 @@ CONSTITUENT_ALIASES = {
 _CONSTITUENT_KEYS = ("chl_mg_per_m3", "cdom_a440_per_m", "small_particles_ppm", "large_particles_ppm")
 _MODEL_KEYS = ("pure_water", "detritus_exponent", "phytoplankton", "pure_water_scattering")
 _IOP_KEYS = ("a_per_m", "b_per_m", "phase", "wavelength_nm")
+
+
+def _iop_value(v: Any) -> float | str:
+    """``a_per_m``/``b_per_m``: a number >= 0 (1/m, all wavelengths) or a CSV file name."""
+    if isinstance(v, str):
+        return v
+    if isinstance(v, bool) or not isinstance(v, numbers.Real):
+        raise invalid(f"must be a number or a CSV file name, got {v!r}",
+                      allowed=">= 0 1/m, or a CSV of wavelength_nm,value")
+    if not math.isfinite(v):
+        raise invalid(f"must be finite, got {v!r}", allowed=">= 0 1/m")
+    if v < 0:
+        raise invalid(f"must be >= 0, got {v!r}", allowed=">= 0 1/m")
+    return float(v)
+
+
+def _wavelengths(v: Any) -> tuple[float, ...]:
+    """``wavelength_nm``: a positive number or a non-empty list of them."""
+    items = v if isinstance(v, list) else [v]
+    if not items or not all(isinstance(x, numbers.Real) and not isinstance(x, bool) and math.isfinite(x) and x > 0
+                            for x in items):
+        raise invalid(f"must be a positive number or a list of them, got {v!r}", allowed="nm > 0")
+    return tuple(float(x) for x in items)
+
+
+_Concentration = Annotated[Real, Field(ge=0)]
+
+
+class WaterTable(FileModel):
+    """The ``[water]`` table: a preset and/or constituents, or explicit IOPs (see the module docstring).
+
+    The original code's names (:data:`CONSTITUENT_ALIASES`) are accepted for the
+    constituents and reported under their canonical names.
+    """
+
+    KEY_ALIASES: ClassVar[dict[str, str]] = CONSTITUENT_ALIASES
+
+    name: str | None = None
+    preset: str | None = None
+    chl_mg_per_m3: _Concentration | None = None
+    cdom_a440_per_m: _Concentration | None = None
+    small_particles_ppm: _Concentration | None = None
+    large_particles_ppm: _Concentration | None = None
+    pure_water: str | None = None
+    pure_water_scattering: str | None = None
+    detritus_exponent: Annotated[Real, Field(ge=0, le=2.0)] | None = None
+    phytoplankton: Bool | None = None
+    a_per_m: Annotated[float | str, BeforeValidator(_iop_value)] | None = None
+    b_per_m: Annotated[float | str, BeforeValidator(_iop_value)] | None = None
+    phase: str | None = None
+    wavelength_nm: Annotated[tuple[float, ...], BeforeValidator(_wavelengths)] | None = None
+
+    @model_validator(mode="before")
+    @classmethod
+    def _aliases(cls, data: Any) -> Any:
+        if not isinstance(data, dict):
+            return data
+        out: dict[str, Any] = {}
+        for k, v in data.items():
+            key = CONSTITUENT_ALIASES.get(k, k)
+            if key in out:
+                raise invalid(f"{key} is given twice (also as {k!r})", field=key,
+                              allowed=f"one of {key}, {k}")
+            out[key] = v
+        return out
+
+    @model_validator(mode="after")
+    def _check(self) -> "WaterTable":
+        iop = [k for k in _IOP_KEYS if getattr(self, k) is not None]
+        cons = [k for k in _CONSTITUENT_KEYS + _MODEL_KEYS + ("preset",) if getattr(self, k) is not None]
+        if iop and cons:
+            raise invalid(f"mixes explicit IOPs ({', '.join(iop)}) with constituents ({', '.join(cons)})",
+                          allowed="either constituents or a_per_m/b_per_m/phase")
+        if iop:
+            for k in ("a_per_m", "b_per_m"):
+                if getattr(self, k) is None:
+                    raise invalid("missing (explicit-IOP water needs a_per_m and b_per_m)", field=k)
+        return self
+
+    @property
+    def explicit_iops(self) -> bool:
+        """True for a water given by a(λ), b(λ) and a phase function."""
+        return self.a_per_m is not None
+
+    def constituent_options(self) -> dict[str, Any]:
+        """Constituent concentrations and model options given (for :class:`ConstituentWater`)."""
+        return {k: getattr(self, k) for k in _CONSTITUENT_KEYS + _MODEL_KEYS if getattr(self, k) is not None}
+
+
+class WaterFile(FileModel):
+    """A water file: one ``[water]`` table."""
+
+    water: WaterTable
+
 
 #: The phase-function names accepted in ``phase = ...`` (besides a CSV file).
 PHASE_SPECS = ("kopelevich", "kopelevich:NS:NL", "petzold-average", "rayleigh", "hg:G", "ff:BB")
@@ -123,92 +229,53 @@ def phase_from_spec(spec: str, *, b: Spectrum1D, file=None, base_dir: Path | Non
                       allowed=", ".join(PHASE_SPECS) + ", or a CSV of angle_deg,value")
 
 
-def _spectrum_value(v: Any, key: str, *, file, base_dir: Path | None) -> Spectrum1D:
+def _spectrum_value(v: float | str, key: str, *, file, base_dir: Path | None) -> Spectrum1D:
+    """a(λ) or b(λ) (1/m) from a validated value: a constant, or a CSV of wavelength_nm,value."""
     field = f"water.{key}"
-    if isinstance(v, (int, float)) and not isinstance(v, bool):
-        if not np.isfinite(v) or v < 0:
-            raise ConfigError(f"must be >= 0, got {v!r}", file=file, field=field, allowed=">= 0 1/m")
+    if not isinstance(v, str):
         return Spectrum1D.constant(float(v), label=field)
-    if isinstance(v, str):
-        path = Path(v)
-        if base_dir is not None and not path.is_absolute():
-            path = base_dir / path
-        if not path.is_file():
-            raise ConfigError(f"CSV file {path} not found", file=file, field=field)
-        try:
-            t = read_csv_table(path)
-        except RigsimError as exc:
-            raise ConfigError(str(exc), file=file, field=field) from None
-        names = list(t.columns)
-        if len(names) < 2 or names[0] != "wavelength_nm":
-            raise ConfigError(f"{path} needs columns wavelength_nm,value", file=file, field=field)
-        wl, vals = t[names[0]], t[names[1]]
-        if wl.dtype.kind != "f" or vals.dtype.kind != "f" or np.any(np.diff(wl) <= 0):
-            raise ConfigError(f"{path}: wavelengths must be increasing numbers", file=file, field=field)
-        if np.any(~np.isfinite(vals)) or np.any(vals < 0):
-            raise ConfigError(f"{path}: values must be finite and >= 0", file=file, field=field,
-                              allowed=">= 0 1/m")
-        return Spectrum1D(values=vals, wavelength_nm=wl, label=f"{path} ({key})")
-    raise ConfigError(f"must be a number or a CSV file name, got {v!r}", file=file, field=field)
+    path = Path(v)
+    if base_dir is not None and not path.is_absolute():
+        path = base_dir / path
+    if not path.is_file():
+        raise ConfigError(f"CSV file {path} not found", file=file, field=field)
+    try:
+        t = read_csv_table(path)
+    except RigsimError as exc:
+        raise ConfigError(str(exc), file=file, field=field) from None
+    names = list(t.columns)
+    if len(names) < 2 or names[0] != "wavelength_nm":
+        raise ConfigError(f"{path} needs columns wavelength_nm,value", file=file, field=field)
+    wl, vals = t[names[0]], t[names[1]]
+    if wl.dtype.kind != "f" or vals.dtype.kind != "f" or np.any(np.diff(wl) <= 0):
+        raise ConfigError(f"{path}: wavelengths must be increasing numbers", file=file, field=field)
+    if np.any(~np.isfinite(vals)) or np.any(vals < 0):
+        raise ConfigError(f"{path}: values must be finite and >= 0", file=file, field=field, allowed=">= 0 1/m")
+    return Spectrum1D(values=vals, wavelength_nm=wl, label=f"{path} ({key})")
 
 
-def water_from_table(table: dict, *, file=None, base_dir: Path | None = None) -> Water:
-    """Build a Water from a parsed ``[water]`` table (see the module docstring)."""
-    t = {CONSTITUENT_ALIASES.get(k, k): v for k, v in table.items()}
-    allowed = ("name", "preset") + _CONSTITUENT_KEYS + _MODEL_KEYS + _IOP_KEYS + tuple(CONSTITUENT_ALIASES)
-    check_keys(table, allowed, file=file, prefix="water.")
-    name = t.get("name", Path(file).stem if file else "custom")
-    iop = [k for k in _IOP_KEYS if k in t]
-    cons = [k for k in _CONSTITUENT_KEYS + _MODEL_KEYS + ("preset",) if k in t]
-    if iop and cons:
-        raise ConfigError(f"mixes explicit IOPs ({', '.join(iop)}) with constituents ({', '.join(cons)})",
-                          file=file, field="water", allowed="either constituents or a_per_m/b_per_m/phase")
-    if iop:
-        for k in ("a_per_m", "b_per_m"):
-            if k not in t:
-                raise ConfigError("missing (explicit-IOP water needs a_per_m and b_per_m)", file=file,
-                                  field=f"water.{k}")
-        a = _spectrum_value(t["a_per_m"], "a_per_m", file=file, base_dir=base_dir)
-        b = _spectrum_value(t["b_per_m"], "b_per_m", file=file, base_dir=base_dir)
-        phase = phase_from_spec(t.get("phase", "petzold-average"), b=b, file=file, base_dir=base_dir)
-        wl = t.get("wavelength_nm")
-        if wl is not None:
-            wl_list = wl if isinstance(wl, list) else [wl]
-            if not wl_list or not all(isinstance(x, (int, float)) and not isinstance(x, bool) and x > 0
-                                      for x in wl_list):
-                raise ConfigError(f"must be a positive number or a list of them, got {wl!r}", file=file,
-                                  field="water.wavelength_nm", allowed="nm > 0")
-            wl = np.array(wl_list, float)
+def _to_water(t: WaterTable, *, file, base_dir: Path | None) -> Water:
+    """The :class:`Water` of a validated table (CSV tables, phase functions and presets read here)."""
+    name = t.name if t.name is not None else (Path(file).stem if file else "custom")
+    if t.explicit_iops:
+        a = _spectrum_value(t.a_per_m, "a_per_m", file=file, base_dir=base_dir)
+        b = _spectrum_value(t.b_per_m, "b_per_m", file=file, base_dir=base_dir)
+        phase = phase_from_spec(t.phase if t.phase is not None else "petzold-average", b=b, file=file,
+                                base_dir=base_dir)
+        wl = None
+        if t.wavelength_nm is not None:
+            wl = np.array(t.wavelength_nm, float)
             for spec in (a, b):
                 lo, hi = spec.range_nm
                 if wl.min() < lo or wl.max() > hi:
                     raise ConfigError(f"{spec.label} covers {lo:g}–{hi:g} nm, not {wl.tolist()}",
                                       file=file, field="water.wavelength_nm", allowed=f"{lo:g}–{hi:g} nm")
         return TabulatedWater(str(name), a, b, phase, source=str(file or "inline"), wavelength_nm=wl)
-    params: dict[str, Any] = {}
-    for k in _CONSTITUENT_KEYS:
-        v = get_number(t, k, file=file, prefix="water.", minimum=0.0)
-        if v is not None:
-            params[k] = v
-    if "detritus_exponent" in t:
-        params["detritus_exponent"] = get_number(t, "detritus_exponent", file=file, prefix="water.",
-                                                 minimum=0.0, maximum=2.0)
-    for k in ("pure_water", "pure_water_scattering"):
-        if k in t:
-            if not isinstance(t[k], str):
-                raise ConfigError(f"must be a name, got {t[k]!r}", file=file, field=f"water.{k}")
-            params[k] = t[k]
-    if "phytoplankton" in t:
-        if not isinstance(t["phytoplankton"], bool):
-            raise ConfigError(f"must be true or false, got {t['phytoplankton']!r}", file=file,
-                              field="water.phytoplankton")
-        params["phytoplankton"] = t["phytoplankton"]
+    params = t.constituent_options()
     try:
-        if "preset" in t:
-            w = preset(str(t["preset"]), **params)
-            if isinstance(w, ConstituentWater) and "name" in t:
-                import dataclasses
-
+        if t.preset is not None:
+            w = preset(t.preset, **params)
+            if isinstance(w, ConstituentWater) and t.name is not None:
                 w = dataclasses.replace(w, name=str(name))
             return w
         return ConstituentWater(name=str(name), **params)
@@ -219,6 +286,27 @@ def water_from_table(table: dict, *, file=None, base_dir: Path | None = None) ->
         raise ConfigError(exc.message, file=file, field=fld, allowed=exc.allowed) from None
 
 
+def water_from_table(table: dict, *, file=None, base_dir: Path | None = None) -> Water:
+    """Build a Water from a parsed ``[water]`` table (see the module docstring).
+
+    Parameters
+    ----------
+    table
+        The table's keys and values (canonical names or the original code's aliases).
+    file
+        The file it came from, for messages.
+    base_dir
+        Folder that relative CSV paths resolve against.
+
+    Raises
+    ------
+    ConfigError
+        One line naming ``water.<key>``: unknown key, wrong type, out of range,
+        constituents mixed with IOPs, unknown preset or phase function, missing CSV.
+    """
+    return _to_water(validate(WaterTable, table, file=file, prefix="water"), file=file, base_dir=base_dir)
+
+
 def load_water(spec: str | Path, **overrides: float | None) -> Water:
     """A water from a preset name or a TOML file, with optional constituent overrides.
 
@@ -227,8 +315,13 @@ def load_water(spec: str | Path, **overrides: float | None) -> Water:
     spec
         A preset name (``coastal``, ``jerlov-II`` …) or a path to a water TOML file.
     overrides
-        ``chl_mg_per_m3``, ``cdom_a440_per_m``, ``small_particles_ppm``,
-        ``large_particles_ppm`` (None: keep) — only for constituent waters.
+        ``chl_mg_per_m3`` (mg/m³), ``cdom_a440_per_m`` (1/m), ``small_particles_ppm``,
+        ``large_particles_ppm`` (ppm by volume); None: keep — only for constituent waters.
+
+    Raises
+    ------
+    ConfigError
+        One line naming the file (if any), the field and what is allowed.
     """
     overrides = {k: v for k, v in overrides.items() if v is not None}
     for k in overrides:
@@ -238,18 +331,15 @@ def load_water(spec: str | Path, **overrides: float | None) -> Water:
     path = Path(s)
     if s.endswith(".toml") or path.is_file():
         doc = read_toml(path)
-        check_keys(doc, ("water",), file=path)
-        if "water" not in doc or not isinstance(doc["water"], dict):
-            raise ConfigError("needs a [water] table", file=path, field="water")
-        table = dict(doc["water"])
-        if overrides:
+        table = doc.get("water")
+        if overrides and isinstance(table, dict):
             if any(k in table for k in _IOP_KEYS):
                 raise ConfigError("constituent overrides do not apply to an explicit-IOP water", file=path,
                                   field="water")
-            table.update(overrides)
-        return water_from_table(table, file=path, base_dir=path.parent)
-    table = {"preset": s, **overrides}
+            table = {k: v for k, v in table.items() if CONSTITUENT_ALIASES.get(k) not in overrides}
+            doc = {**doc, "water": {**table, **overrides}}
+        return _to_water(validate(WaterFile, doc, file=path).water, file=path, base_dir=path.parent)
     if s.lower().startswith("jerlov") and overrides:
         raise ConfigError("constituent overrides apply only to constituent presets, not Jerlov types",
                           field="water")
-    return water_from_table(table)
+    return water_from_table({"preset": s, **overrides})

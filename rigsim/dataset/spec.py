@@ -40,29 +40,22 @@ Every range is checked when the spec is read, so an impossible range fails befor
 
 from __future__ import annotations
 
+import math
+import numbers
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Annotated, Any, Literal
 
-import numpy as np
+from pydantic import BeforeValidator, Field, field_validator
 
-from rigsim.config.tomlfile import check_keys, get_number, read_toml
+from rigsim.config.schema import Bool, FileModel, Int, Real, WavelengthGrid, invalid, load_file, names_list
 from rigsim.errors import ConfigError, unknown_name_error
 from rigsim.spectrum import parse_wavelength_range
 
-__all__ = ["DatasetSpec", "load_dataset_spec", "OBJECT_KINDS"]
+__all__ = ["DatasetSpec", "load_dataset_spec", "OBJECT_KINDS", "DatasetFile"]
 
 #: Object kinds a dataset scene can hold.
 OBJECT_KINDS = ("colorchecker", "white-disk", "black-disk", "slanted-edge", "mesh")
-
-_KEYS = {
-    "dataset": ("name", "width", "height", "spp", "wavelengths", "description"),
-    "water": ("presets", "constituent_probability", "chl_mg_per_m3", "cdom_a440_per_m", "small_particles_ppm",
-              "large_particles_ppm"),
-    "rig": ("files", "power_fraction"),
-    "sensor": ("names", "noise"),
-    "scene": ("distance_m", "objects", "kinds", "meshes", "size_fraction", "reflectances", "bottom_probability",
-              "bottom_altitude_m"),
-}
 
 
 @dataclass(frozen=True)
@@ -100,31 +93,109 @@ class DatasetSpec:
         return asdict(self)
 
 
-def _range(t: dict, key: str, default, *, file, sec: str, lo: float, hi: float = np.inf,
-           positive: bool = False, integer: bool = False) -> tuple[float, float]:
-    field = f"{sec}.{key}"
-    v = t.get(key, default)
-    allowed = f"[lo, hi] with {'0 <' if positive else f'{lo:g} <='} lo <= hi" + (f" <= {hi:g}" if np.isfinite(hi) else "")
-    if isinstance(v, (int, float)) and not isinstance(v, bool):
-        v = [v, v]
-    if not (isinstance(v, list) and len(v) == 2 and all(isinstance(x, (int, float)) and not isinstance(x, bool)
-                                                        for x in v)):
-        raise ConfigError(f"must be a range [lo, hi], got {v!r}", file=file, field=field, allowed=allowed)
-    a, b = float(v[0]), float(v[1])
-    if not (np.isfinite(a) and np.isfinite(b)) or a > b or a < lo or b > hi or (positive and a <= 0):
-        raise ConfigError(f"impossible range [{a:g}, {b:g}]", file=file, field=field, allowed=allowed)
-    if integer and (a != int(a) or b != int(b)):
-        raise ConfigError(f"must be whole numbers, got [{a:g}, {b:g}]", file=file, field=field, allowed=allowed)
-    return a, b
+# ---------------------------------------------------------------------------- the file schema
+
+def value_range(*, lo: float = 0.0, hi: float = math.inf, positive: bool = False, integer: bool = False) -> Any:
+    """The type of a range ``[lo, hi]`` (a single number x means ``[x, x]``) drawn from.
+
+    Parameters
+    ----------
+    lo, hi
+        Bounds the range must lie in.
+    positive
+        The lower end must be > 0 (log-uniform draws) instead of >= ``lo``.
+    integer
+        Both ends whole numbers.
+    """
+    allowed = f"[lo, hi] with {'0 <' if positive else f'{lo:g} <='} lo <= hi" + (
+        f" <= {hi:g}" if math.isfinite(hi) else "")
+
+    def check(v: Any) -> tuple[float, float]:
+        if isinstance(v, numbers.Real) and not isinstance(v, bool):
+            v = [v, v]
+        if not (isinstance(v, (list, tuple)) and len(v) == 2
+                and all(isinstance(x, numbers.Real) and not isinstance(x, bool) for x in v)):
+            raise invalid(f"must be a range [lo, hi], got {v!r}", allowed=allowed)
+        a, b = float(v[0]), float(v[1])
+        if not (math.isfinite(a) and math.isfinite(b)) or a > b or a < lo or b > hi or (positive and a <= 0):
+            raise invalid(f"impossible range [{a:g}, {b:g}]", allowed=allowed)
+        if integer and (a != int(a) or b != int(b)):
+            raise invalid(f"must be whole numbers, got [{a:g}, {b:g}]", allowed=allowed)
+        return a, b
+
+    return Annotated[tuple[float, float], BeforeValidator(check)]
 
 
-def _names(t: dict, key: str, default, *, file, sec: str) -> list[str]:
-    v = t.get(key, default)
-    if isinstance(v, str):
-        v = [v]
-    if not isinstance(v, list) or not all(isinstance(x, str) for x in v):
-        raise ConfigError(f"must be a list of names, got {v!r}", file=file, field=f"{sec}.{key}")
-    return v
+_Probability = Annotated[Real, Field(ge=0, le=1)]
+_Names = names_list(allow_empty=True)
+
+
+class DatasetTable(FileModel):
+    """``[dataset]``: name, image size (px), paths per pixel and wavelengths (nm)."""
+
+    name: str | None = None
+    description: str = ""
+    width: Annotated[Int, Field(ge=8, le=4096)] = 128
+    height: Annotated[Int, Field(ge=8, le=4096)] = 96
+    spp: Annotated[Int, Field(ge=1, le=1 << 16)] = 64
+    wavelengths: WavelengthGrid = tuple(float(x) for x in parse_wavelength_range("400:700:10"))
+
+
+class WaterRanges(FileModel):
+    """``[water]``: presets drawn uniformly, or constituents (log-uniform chl and CDOM, uniform particles)."""
+
+    presets: _Names = ("clear", "coastal")
+    constituent_probability: _Probability = 0.0
+    chl_mg_per_m3: value_range(positive=True) = (0.01, 10.0)
+    cdom_a440_per_m: value_range(positive=True) = (0.001, 0.5)
+    small_particles_ppm: value_range() = (0.0, 0.3)
+    large_particles_ppm: value_range() = (0.0, 0.5)
+
+
+class RigRanges(FileModel):
+    """``[rig]``: rig files and the power setting (fraction of full power, uniform)."""
+
+    files: _Names = ()
+    power_fraction: value_range(hi=1.0, positive=True) = (1.0, 1.0)
+
+
+class SensorTable(FileModel):
+    """``[sensor]``: sensor names or files, and whether the sensor adds noise."""
+
+    names: _Names = ("sony_ilce-7rm2",)
+    noise: Bool = True
+
+
+class SceneRanges(FileModel):
+    """``[scene]``: distances (m), object counts, kinds, sizes (fraction of the field of view) and the bottom."""
+
+    distance_m: value_range(positive=True) = (0.8, 4.0)
+    objects: value_range(lo=1, hi=20, integer=True) = (1, 3)
+    kinds: _Names = ("colorchecker", "white-disk", "mesh")
+    meshes: _Names = ()
+    size_fraction: value_range(hi=1.0, positive=True) = (0.1, 0.35)
+    reflectances: Literal["training", "colorchecker"] = "training"
+    bottom_probability: _Probability = 0.5
+    bottom_altitude_m: value_range(positive=True) = (0.6, 3.0)
+
+    @field_validator("kinds")
+    @classmethod
+    def _kinds(cls, v: tuple[str, ...]) -> tuple[str, ...]:
+        for i, k in enumerate(v):
+            if k not in OBJECT_KINDS:
+                exc = unknown_name_error("object kind", k, OBJECT_KINDS)
+                raise invalid(exc.message, field=f"[{i}]", allowed=exc.allowed)
+        return v
+
+
+class DatasetFile(FileModel):
+    """A whole dataset spec (see the module docstring)."""
+
+    dataset: DatasetTable = DatasetTable()
+    water: WaterRanges = WaterRanges()
+    rig: RigRanges = RigRanges()
+    sensor: SensorTable = SensorTable()
+    scene: SceneRanges = SceneRanges()
 
 
 def _resolve(p: str, base: Path) -> str:
@@ -133,47 +204,33 @@ def _resolve(p: str, base: Path) -> str:
 
 
 def load_dataset_spec(path: str | Path) -> DatasetSpec:
-    """Read and validate a dataset spec; rigs, sensors, presets and meshes are all loaded here."""
-    path = Path(path)
-    doc = read_toml(path)
-    check_keys(doc, _KEYS, file=path)
-    for sec, keys in _KEYS.items():
-        if sec in doc:
-            if not isinstance(doc[sec], dict):
-                raise ConfigError("must be a table", file=path, field=sec)
-            check_keys(doc[sec], keys, file=path, prefix=f"{sec}.")
-    base = path.parent
-    ds, wt, rg, sn, sc = (doc.get(k, {}) for k in ("dataset", "water", "rig", "sensor", "scene"))
+    """Read and validate a dataset spec; rigs, sensors, presets and meshes are all loaded here.
 
-    width = int(get_number(ds, "width", file=path, prefix="dataset.", default=128, minimum=8, maximum=4096))
-    height = int(get_number(ds, "height", file=path, prefix="dataset.", default=96, minimum=8, maximum=4096))
-    spp = int(get_number(ds, "spp", file=path, prefix="dataset.", default=64, minimum=1, maximum=1 << 16))
-    try:
-        wls = parse_wavelength_range(str(ds.get("wavelengths", "400:700:10")))
-    except ConfigError as exc:
-        raise ConfigError(exc.message, file=path, field="dataset.wavelengths", allowed=exc.allowed) from None
+    Raises
+    ------
+    ConfigError
+        One line naming the file, the field (``scene.distance_m``) and what is allowed.
+    """
+    path = Path(path)
+    f = load_file(DatasetFile, path)
+    base = path.parent
+    ds, wt, rg, sn, sc = f.dataset, f.water, f.rig, f.sensor, f.scene
 
     from rigsim.water.presets import preset
 
-    presets = _names(wt, "presets", ["clear", "coastal"], file=path, sec="water")
-    for i, p in enumerate(presets):
+    for i, p in enumerate(wt.presets):
         try:
             preset(p)
         except ConfigError as exc:
             raise ConfigError(exc.message, file=path, field=f"water.presets[{i}]", allowed=exc.allowed) from None
-    cprob = get_number(wt, "constituent_probability", file=path, prefix="water.", default=0.0, minimum=0.0,
-                       maximum=1.0)
-    if not presets and cprob < 1.0:
+    if not wt.presets and wt.constituent_probability < 1.0:
         raise ConfigError("no presets to draw from", file=path, field="water.presets",
                           allowed="at least one preset, or constituent_probability = 1")
-    chl = _range(wt, "chl_mg_per_m3", [0.01, 10.0], file=path, sec="water", lo=0.0, positive=True)
-    cdom = _range(wt, "cdom_a440_per_m", [0.001, 0.5], file=path, sec="water", lo=0.0, positive=True)
-    small = _range(wt, "small_particles_ppm", [0.0, 0.3], file=path, sec="water", lo=0.0)
-    large = _range(wt, "large_particles_ppm", [0.0, 0.5], file=path, sec="water", lo=0.0)
 
     from rigsim.config.rig import load_rig
+    from rigsim.scene.optics import port_reach_m
 
-    rigs = [_resolve(r, base) for r in _names(rg, "files", [], file=path, sec="rig")]
+    rigs = [_resolve(r, base) for r in rg.files]
     if not rigs:
         raise ConfigError("no rig files", file=path, field="rig.files", allowed="a list of rig TOML files")
     port_reach = []
@@ -182,56 +239,39 @@ def load_dataset_spec(path: str | Path) -> DatasetSpec:
             rig = load_rig(r)
         except ConfigError as exc:
             raise ConfigError(str(exc), file=path, field=f"rig.files[{i}]") from None
-        from rigsim.scene.optics import port_reach_m
-
         port_reach.append(port_reach_m(rig.camera))
-    power = _range(rg, "power_fraction", [1.0, 1.0], file=path, sec="rig", lo=0.0, hi=1.0, positive=True)
 
     from rigsim.sensor import load_sensor
 
-    sensors = _names(sn, "names", ["sony_ilce-7rm2"], file=path, sec="sensor")
-    if not sensors:
+    if not sn.names:
         raise ConfigError("no sensors", file=path, field="sensor.names")
-    for i, s in enumerate(sensors):
+    for i, s in enumerate(sn.names):
         try:
             load_sensor(s)
         except ConfigError as exc:
             raise ConfigError(str(exc), file=path, field=f"sensor.names[{i}]") from None
-    noise = sn.get("noise", True)
-    if not isinstance(noise, bool):
-        raise ConfigError(f"must be true or false, got {noise!r}", file=path, field="sensor.noise")
 
-    dist = _range(sc, "distance_m", [0.8, 4.0], file=path, sec="scene", lo=0.0, positive=True)
+    dist = sc.distance_m
     if dist[0] <= max(port_reach) + 0.05:
         raise ConfigError(f"impossible range [{dist[0]:g}, {dist[1]:g}]: objects would touch the port "
                           f"(reaches {max(port_reach):.3f} m)", file=path, field="scene.distance_m",
                           allowed=f"lo > {max(port_reach) + 0.05:.2f} m")
-    objects = _range(sc, "objects", [1, 3], file=path, sec="scene", lo=1, hi=20, integer=True)
-    kinds = _names(sc, "kinds", ["colorchecker", "white-disk", "mesh"], file=path, sec="scene")
-    for i, k in enumerate(kinds):
-        if k not in OBJECT_KINDS:
-            raise unknown_name_error("object kind", k, OBJECT_KINDS, file=path, field=f"scene.kinds[{i}]")
-    meshes = [_resolve(m, base) for m in _names(sc, "meshes", [], file=path, sec="scene")]
-    if "mesh" in kinds and not meshes:
+    meshes = [_resolve(m, base) for m in sc.meshes]
+    if "mesh" in sc.kinds and not meshes:
         meshes = [str(Path(__file__).resolve().parents[2] / "data" / "meshes" / "rock.obj")]
-    for i, m in enumerate(meshes):
-        from rigsim.scene.meshes import mesh_vertices
+    from rigsim.scene.meshes import mesh_vertices
 
+    for i, m in enumerate(meshes):
         try:
             mesh_vertices(m)
         except ConfigError as exc:
             raise ConfigError(str(exc), file=path, field=f"scene.meshes[{i}]") from None
-    size = _range(sc, "size_fraction", [0.1, 0.35], file=path, sec="scene", lo=0.0, hi=1.0, positive=True)
-    refl = sc.get("reflectances", "training")
-    if refl not in ("training", "colorchecker"):
-        raise ConfigError(f"unknown reflectance library {refl!r}", file=path, field="scene.reflectances",
-                          allowed="training (colour-science RAW to ACES, 190 spectra), colorchecker")
-    bprob = get_number(sc, "bottom_probability", file=path, prefix="scene.", default=0.5, minimum=0.0, maximum=1.0)
-    balt = _range(sc, "bottom_altitude_m", [0.6, 3.0], file=path, sec="scene", lo=0.0, positive=True)
     return DatasetSpec(
-        name=str(ds.get("name", path.stem)), source=str(path.resolve()), width=width, height=height, spp=spp,
-        wavelengths_nm=tuple(float(x) for x in wls), presets=tuple(presets), constituent_probability=cprob,
-        chl_mg_per_m3=chl, cdom_a440_per_m=cdom, small_particles_ppm=small, large_particles_ppm=large,
-        rigs=tuple(rigs), power_fraction=power, sensors=tuple(sensors), noise=noise, distance_m=dist,
-        objects=(int(objects[0]), int(objects[1])), kinds=tuple(kinds), meshes=tuple(meshes), size_fraction=size,
-        reflectances=refl, bottom_probability=bprob, bottom_altitude_m=balt)
+        name=ds.name if ds.name is not None else path.stem, source=str(path.resolve()), width=ds.width,
+        height=ds.height, spp=ds.spp, wavelengths_nm=ds.wavelengths, presets=wt.presets,
+        constituent_probability=wt.constituent_probability, chl_mg_per_m3=wt.chl_mg_per_m3,
+        cdom_a440_per_m=wt.cdom_a440_per_m, small_particles_ppm=wt.small_particles_ppm,
+        large_particles_ppm=wt.large_particles_ppm, rigs=tuple(rigs), power_fraction=rg.power_fraction,
+        sensors=sn.names, noise=sn.noise, distance_m=dist, objects=(int(sc.objects[0]), int(sc.objects[1])),
+        kinds=sc.kinds, meshes=tuple(meshes), size_fraction=sc.size_fraction, reflectances=sc.reflectances,
+        bottom_probability=sc.bottom_probability, bottom_altitude_m=sc.bottom_altitude_m)

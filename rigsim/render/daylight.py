@@ -35,15 +35,15 @@ import numpy as np
 from rigsim.errors import ConfigError
 from rigsim.render.variant import mitsuba
 from rigsim.scene.daylight_field import SceneDaylight, scene_daylight
-from rigsim.scene.types import Daylight, Scene
+from rigsim.scene.types import DAYLIGHT_MODELS, WAVE_KINDS, Daylight, Scene
 from rigsim.spectrum import MITSUBA_WAVELENGTH_RANGE_NM
 
 __all__ = ["AmbientTables", "ambient_tables", "from_scene_daylight", "daylight_from_options", "DAYLIGHT_MODELS", "WAVE_KINDS"]
 
 mi, dr = mitsuba()
 
-DAYLIGHT_MODELS = ("kd", "monte-carlo")
-WAVE_KINDS = ("flat", "sines", "pierson-moskowitz")
+#: Command-line option of each :class:`Daylight` field, for messages.
+_OPTION_OF_FIELD = {"depth_m": "depth", "sun_zenith_deg": "sun-zenith", "model": "daylight-model"}
 _LO, _HI = MITSUBA_WAVELENGTH_RANGE_NM
 _N_WL = int(round(_HI - _LO)) + 1
 
@@ -52,26 +52,33 @@ def daylight_from_options(depth_m: float | None, *, sun_zenith_deg: float = 30.0
                           model: str = "kd", sky: str = "cie", photons: int = 20_000, waves: str = "flat",
                           wind_speed_m_s: float = 5.0, wave_amplitude_m: float = 0.05,
                           wave_length_m: float = 1.0) -> Daylight | None:
-    """A checked :class:`Daylight` from command-line values (None if ``depth_m`` is None)."""
+    """A :class:`Daylight` from command-line values (None if ``depth_m`` is None).
+
+    Parameters
+    ----------
+    depth_m
+        Camera depth (m, > 0), or None for no daylight.
+    sun_zenith_deg, sun_azimuth_deg
+        Sun position (deg; zenith 0 <= z < 90).
+    model, sky, photons, waves, wind_speed_m_s, wave_amplitude_m, wave_length_m
+        As :class:`Daylight` (which checks them all).
+
+    Raises
+    ------
+    ConfigError
+        What :class:`Daylight` refuses, naming the command-line option (``depth``,
+        ``sun-zenith``, ``daylight-model``, ``waves``, ``photons`` …).
+    """
     if depth_m is None:
         return None
-    d = float(depth_m)
-    if not np.isfinite(d) or d <= 0:
-        raise ConfigError(f"depth must be > 0 m, got {depth_m}", field="depth", allowed="> 0 m")
-    z = float(sun_zenith_deg)
-    if not 0.0 <= z < 90.0:
-        raise ConfigError(f"sun zenith must be in [0, 90) deg, got {sun_zenith_deg}", field="sun-zenith",
-                          allowed="0 <= zenith < 90")
-    if model not in DAYLIGHT_MODELS:
-        raise ConfigError(f"unknown daylight model {model!r}", field="daylight-model",
-                          allowed=", ".join(DAYLIGHT_MODELS))
-    if waves not in WAVE_KINDS:
-        raise ConfigError(f"unknown waves {waves!r}", field="waves", allowed=", ".join(WAVE_KINDS))
-    if int(photons) < 100:
-        raise ConfigError(f"need at least 100 photons, got {photons}", field="photons", allowed=">= 100")
-    return Daylight(depth_m=d, sun_zenith_deg=z, sun_azimuth_deg=float(sun_azimuth_deg), model=model, sky=sky,
-                    photons=int(photons), waves=waves, wind_speed_m_s=float(wind_speed_m_s),
-                    wave_amplitude_m=float(wave_amplitude_m), wave_length_m=float(wave_length_m))
+    try:
+        return Daylight(depth_m=depth_m, sun_zenith_deg=sun_zenith_deg, sun_azimuth_deg=sun_azimuth_deg, model=model,
+                        sky=sky, photons=photons, waves=waves, wind_speed_m_s=wind_speed_m_s,
+                        wave_amplitude_m=wave_amplitude_m, wave_length_m=wave_length_m)
+    except ConfigError as exc:
+        key = exc.field.split(".", 1)[-1] if exc.field else ""
+        raise ConfigError(exc.message, field=_OPTION_OF_FIELD.get(key, key.replace("_", "-")) or None,
+                          allowed=exc.allowed) from None
 
 
 @dataclasses.dataclass(eq=False)

@@ -69,6 +69,13 @@ def make_target(target: str | Path, distance_m: float, *, size_m: float | None =
     reflectance
         Optional override for disks, the bottom and meshes: a number 0–1, a CSV
         path (``wavelength_nm, reflectance``) or ``(wavelengths_nm, values)``.
+
+    Raises
+    ------
+    ConfigError
+        Unknown kind (with suggestions), unreadable mesh, a reflectance outside
+        0–1 or for a chart, and whatever :class:`Target` refuses (``size_m`` or
+        ``distance_m`` not > 0).
     """
     text = str(target)
     if text.lower().endswith(_MESH_SUFFIXES):
@@ -84,14 +91,13 @@ def make_target(target: str | Path, distance_m: float, *, size_m: float | None =
         size = DEFAULT_SIZE_M[kind] if size_m is None else size_m
     else:
         raise unknown_name_error("target", text, (*TARGET_KINDS, "<mesh.obj|mesh.ply>"), field="target")
-    if not (math.isfinite(float(size)) and float(size) > 0):
-        raise ConfigError(f"must be > 0 m, got {size}", field="size_m", allowed="> 0 m")
     if reflectance is not None and kind in ("colorchecker", "slanted-edge"):
         raise ConfigError(f"a {kind} has fixed reflectances", field="reflectance",
                           allowed="reflectance only for black-disk, white-disk, bottom, mesh")
     wl, refl = _reflectance(reflectance)
     tilt = DEFAULT_TILT_DEG.get(kind, 0.0) if tilt_deg is None else float(tilt_deg)
-    return Target(kind=kind, distance_m=float(distance_m), size_m=float(size), mesh_path=mesh_path,
+    # Target checks distance_m, size_m (> 0, finite) and the reflectance table itself
+    return Target(kind=kind, distance_m=distance_m, size_m=size, mesh_path=mesh_path,
                   reflectance_wavelength_nm=wl, reflectance=refl, tilt_deg=tilt)
 
 
@@ -146,10 +152,7 @@ def build_scene(rig: Rig, water: Water | str | None, target: str | Path | Target
             raise ConfigError(f"target is behind the camera (distance {d:g} m)", field="distance_m",
                               allowed="> 0 m, in front of the port")
         tgt = make_target(target, d, size_m=size_m, tilt_deg=tilt_deg, reflectance=reflectance)
-    d = tgt.distance_m
-    if not math.isfinite(d) or d <= 0:
-        raise ConfigError(f"target is behind the camera (distance {d:g} m)", field="distance_m",
-                          allowed="> 0 m, in front of the port")
+    d = tgt.distance_m  # > 0: a Target cannot be built behind the camera
     reach = port_reach_m(rig.camera)
     if tgt.kind == "bottom":
         floor = max(reach, rig.camera.housing_radius_m)

@@ -1,13 +1,63 @@
-"""Typed, frozen descriptions of what is in a scene (SI units, wavelengths in nm)."""
+"""Typed, frozen descriptions of what is in a scene (SI units, wavelengths in nm).
+
+Each type validates itself when it is built — from a rig file or from Python —
+with the constraints written on its fields (pydantic dataclasses made by
+:func:`rigsim.config.schema.frozen_type`).  An invalid value raises
+:class:`~rigsim.errors.ConfigError` naming the class, the field and the allowed
+range, e.g. ``BeamPattern.beam_angle_deg: out of range: 400 (allowed: > 0 and <
+360 (deg, full angle at half intensity))``; code downstream relies on these
+checks instead of repeating them.  The types stay standard dataclasses:
+frozen, hashable, ``dataclasses.replace`` (which validates again) and ``asdict``
+work as before.
+
+Examples
+--------
+>>> BeamPattern(beam_angle_deg=400.0)
+Traceback (most recent call last):
+...
+rigsim.errors.ConfigError: BeamPattern.beam_angle_deg: out of range: 400 (allowed: > 0 and < 360 (deg, full angle at half intensity))
+"""
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Literal
+from dataclasses import field
+from typing import Annotated, Literal, get_args
 
 import numpy as np
+from pydantic import Field, model_validator
 
+from rigsim.config.schema import Direction, Int, Real, Unit, Vec3, float_table, frozen_type, invalid
 from rigsim.water.model import Water
+
+__all__ = ["Port", "Camera", "BeamPattern", "Light", "Rig", "Target", "Daylight", "Scene", "unit",
+           "TARGET_KIND_NAMES", "LIGHT_KINDS", "DAYLIGHT_MODELS", "WAVE_KINDS"]
+
+TargetKind = Literal["colorchecker", "black-disk", "white-disk", "slanted-edge", "bottom", "mesh"]
+LightKind = Literal["strobe", "continuous"]
+DaylightModel = Literal["kd", "monte-carlo"]
+WaveKind = Literal["flat", "sines", "pierson-moskowitz"]
+#: Kinds of :class:`Target` (``mesh`` needs ``mesh_path``).
+TARGET_KIND_NAMES: tuple[str, ...] = get_args(TargetKind)
+#: Kinds of :class:`Light`.
+LIGHT_KINDS: tuple[str, ...] = get_args(LightKind)
+#: Daylight models of :class:`Daylight` (``kd`` fast, ``monte-carlo`` through the water column).
+DAYLIGHT_MODELS: tuple[str, ...] = get_args(DaylightModel)
+#: Sea surfaces of :class:`Daylight` for caustics.
+WAVE_KINDS: tuple[str, ...] = get_args(WaveKind)
+
+_Metres = Annotated[Real, Unit("m")]
+_PositiveM = Annotated[Real, Field(gt=0), Unit("m")]
+_NonNegativeM = Annotated[Real, Field(ge=0), Unit("m")]
+_PositiveMm = Annotated[Real, Field(gt=0), Unit("mm")]
+_Degrees = Annotated[Real, Unit("deg")]
+_Wavelengths = float_table(increasing=True, unit="nm")
+
+
+def _same_length(obj, values: str, grid: str) -> None:
+    n, m = len(getattr(obj, values)), len(getattr(obj, grid))
+    if n != m:
+        raise invalid(f"has {n} values for {m} wavelengths in {grid}", field=values,
+                      allowed=f"one value per entry of {grid}")
 
 
 def unit(v) -> np.ndarray:
@@ -19,7 +69,7 @@ def unit(v) -> np.ndarray:
     return a / n
 
 
-@dataclass(frozen=True)
+@frozen_type
 class Port:
     """Housing port in front of the lens.
 
@@ -41,13 +91,13 @@ class Port:
     """
 
     kind: Literal["flat", "dome"] = "dome"
-    radius_m: float = 0.1
-    thickness_m: float = 0.008
-    glass_index: float = 1.49
-    standoff_m: float = 0.02
+    radius_m: _PositiveM = 0.1
+    thickness_m: _NonNegativeM = 0.008
+    glass_index: Annotated[Real, Field(ge=1.0)] = 1.49
+    standoff_m: _NonNegativeM = 0.02
 
 
-@dataclass(frozen=True)
+@frozen_type
 class Camera:
     """Camera pose and lens.
 
@@ -70,38 +120,47 @@ class Camera:
         The housing port.
     housing_radius_m
         Radius of a sphere around the entrance pupil that stands for the housing:
-        lights must be outside it.
+        lights must be outside it (checked by the rig reader, m).
+
+    Raises
+    ------
+    ConfigError
+        Non-finite numbers, a zero ``forward`` or ``up``, ``up`` parallel to
+        ``forward``, sizes, focal length, f-number, focus distance or housing
+        radius not > 0.
     """
 
-    position_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    forward: tuple[float, float, float] = (0.0, 0.0, 1.0)
-    up: tuple[float, float, float] = (0.0, 1.0, 0.0)
-    sensor_width_mm: float = 36.0
-    sensor_height_mm: float = 24.0
-    focal_length_mm: float = 24.0
-    f_number: float = 8.0
-    focus_distance_m: float | None = None
+    position_m: Vec3 = (0.0, 0.0, 0.0)
+    forward: Direction = (0.0, 0.0, 1.0)
+    up: Direction = (0.0, 1.0, 0.0)
+    sensor_width_mm: _PositiveMm = 36.0
+    sensor_height_mm: _PositiveMm = 24.0
+    focal_length_mm: _PositiveMm = 24.0
+    f_number: Annotated[Real, Field(gt=0)] = 8.0
+    focus_distance_m: _PositiveM | None = None
     port: Port = field(default_factory=Port)
-    housing_radius_m: float = 0.12
+    housing_radius_m: _PositiveM = 0.12
+
+    @model_validator(mode="after")
+    def _up_not_parallel(self) -> "Camera":
+        f, u = np.asarray(self.forward), np.asarray(self.up)
+        if np.linalg.norm(np.cross(f, u)) < 1e-6 * np.linalg.norm(f) * np.linalg.norm(u):
+            raise invalid("must not be parallel to forward", field="up",
+                          allowed="a direction not parallel to camera.forward")
+        return self
 
     def frame(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """Orthonormal ``(right, up, forward)`` in world coordinates.
 
         ``forward`` is the normalised viewing direction, ``up`` the camera's up made
         orthogonal to it, ``right = forward × up`` (the image's right in a right-handed
-        world: −x for the default camera looking along +z with +y up).
+        world: −x for the default camera looking along +z with +y up).  The camera's
+        validation guarantees both are non-zero and not parallel.
         """
-        from rigsim.errors import ConfigError
-
         f = np.asarray(self.forward, float)
-        nf = np.linalg.norm(f)
-        if not np.isfinite(nf) or nf == 0:
-            raise ConfigError("camera forward must be a non-zero vector", field="camera.forward")
-        f = f / nf
+        f = f / np.linalg.norm(f)
         u = np.asarray(self.up, float)
         u = u - f * np.dot(u, f)
-        if np.linalg.norm(u) < 1e-9:
-            raise ConfigError("camera up is parallel to its forward direction", field="camera.up")
         u = u / np.linalg.norm(u)
         return np.cross(f, u), u, f
 
@@ -111,7 +170,7 @@ class Camera:
         return float(np.degrees(2 * np.arctan(self.sensor_width_mm / (2 * self.focal_length_mm))))
 
 
-@dataclass(frozen=True)
+@frozen_type
 class BeamPattern:
     """Angular intensity profile of a light, relative to its axis, f(0) = 1.
 
@@ -122,18 +181,34 @@ class BeamPattern:
         beam angle at half intensity, p the edge sharpness (2: Gaussian-like);
         ``"table"``: linear interpolation of (angle_deg, relative) pairs (0 beyond).
     beam_angle_deg
-        Full beam angle at half intensity (deg), for ``soft-cone``.
+        Full beam angle at half intensity (deg), for ``soft-cone``: 0 < angle < 360.
     edge_exponent
-        p above.
+        p above, 0 < p <= 100.
     angle_deg, relative
-        The table for ``kind="table"``.
+        The table for ``kind="table"``: angles (deg) from 0, strictly increasing, at
+        most 180; relative intensities >= 0, one per angle (at least two rows).
     """
 
     kind: Literal["soft-cone", "table"] = "soft-cone"
-    beam_angle_deg: float = 100.0
-    edge_exponent: float = 2.0
-    angle_deg: tuple[float, ...] = ()
-    relative: tuple[float, ...] = ()
+    beam_angle_deg: Annotated[Real, Field(gt=0, lt=360), Unit("deg, full angle at half intensity")] = 100.0
+    edge_exponent: Annotated[Real, Field(gt=0, le=100)] = 2.0
+    angle_deg: float_table(increasing=True, unit="deg") = ()
+    relative: float_table(nonnegative=True) = ()
+
+    @model_validator(mode="after")
+    def _table(self) -> "BeamPattern":
+        if self.kind == "table":
+            a = self.angle_deg
+            if len(a) < 2:
+                raise invalid(f"a table beam needs at least 2 angles, got {len(a)}", field="angle_deg",
+                              allowed="0 = a0 < a1 < ... <= 180 deg")
+            if a[0] != 0.0 or a[-1] > 180.0:
+                raise invalid(f"angles must run from 0 to at most 180 deg, got {a[0]:g}–{a[-1]:g}",
+                              field="angle_deg", allowed="0 = a0 < a1 < ... <= 180 deg")
+        if len(self.relative) != len(self.angle_deg):
+            raise invalid(f"has {len(self.relative)} values for {len(self.angle_deg)} angles", field="relative",
+                          allowed="one value per entry of angle_deg")
+        return self
 
     def relative_intensity(self, theta_rad) -> np.ndarray:
         """f(θ) for angles θ (rad) off the axis."""
@@ -145,7 +220,7 @@ class BeamPattern:
         return np.interp(np.degrees(th), self.angle_deg, self.relative, right=0.0)
 
 
-@dataclass(frozen=True)
+@frozen_type
 class Light:
     """A strobe or a continuous (video) light.
 
@@ -157,25 +232,31 @@ class Light:
         ``"strobe"`` (one flash per exposure; intensities in J/(sr·nm)) or
         ``"continuous"`` (video light; W/(sr·nm)).
     position_m, aim
-        Position (m) and beam axis direction.
+        Position (m, finite) and beam axis direction (non-zero; normalised on use).
     beam
         Angular profile.
     wavelength_nm, axial_intensity
         On-axis spectral radiant intensity: W/(sr·nm) for continuous lights,
-        J/(sr·nm) per flash for strobes, tabulated at ``wavelength_nm`` (must cover
-        the rendered bands).  Off axis: ``axial_intensity · beam.relative_intensity(θ)``.
+        J/(sr·nm) per flash for strobes, finite and >= 0, tabulated at
+        ``wavelength_nm`` (strictly increasing, at least one, one value each; must
+        cover the rendered bands).  Off axis: ``axial_intensity · beam.relative_intensity(θ)``.
     spectrum_name
         Name of the spectrum it was built from (for reports).
     """
 
     name: str
-    kind: Literal["strobe", "continuous"]
-    position_m: tuple[float, float, float]
-    aim: tuple[float, float, float]
+    kind: LightKind
+    position_m: Vec3
+    aim: Direction
     beam: BeamPattern
-    wavelength_nm: tuple[float, ...]
-    axial_intensity: tuple[float, ...]
+    wavelength_nm: float_table(increasing=True, min_length=1, unit="nm")
+    axial_intensity: float_table(nonnegative=True, unit="W/(sr·nm), or J/(sr·nm) per flash")
     spectrum_name: str = ""
+
+    @model_validator(mode="after")
+    def _table(self) -> "Light":
+        _same_length(self, "axial_intensity", "wavelength_nm")
+        return self
 
     def describe(self) -> dict:
         """JSON-serialisable summary for metadata (the spectral table reduced to its ranges)."""
@@ -191,18 +272,38 @@ class Light:
         return d
 
 
-@dataclass(frozen=True)
+@frozen_type
 class Rig:
-    """A camera with its lights, as described by a rig file."""
+    """A camera with its lights, as described by a rig file.
+
+    Attributes
+    ----------
+    name
+        Label.
+    camera
+        The camera, lens and port.
+    lights
+        The lights, in world coordinates.
+    source
+        The file it came from (``""`` if built in code).
+    description
+        Free text.
+
+    Notes
+    -----
+    A rig file also requires unique light names and lights outside the housing
+    (:mod:`rigsim.config.rig`); rigs built in code may break those rules (tests
+    put point lights at the pupil).
+    """
 
     name: str
     camera: Camera
     lights: tuple[Light, ...] = ()
-    source: str = ""  # file it came from
+    source: str = ""
     description: str = ""
 
 
-@dataclass(frozen=True)
+@frozen_type
 class Target:
     """Something to look at, placed in camera coordinates.
 
@@ -210,17 +311,19 @@ class Target:
     ----------
     kind
         ``"colorchecker"``, ``"black-disk"``, ``"white-disk"``, ``"slanted-edge"``,
-        ``"bottom"`` (sand plane) or ``"mesh"``.
+        ``"bottom"`` (sand plane) or ``"mesh"`` (:data:`TARGET_KIND_NAMES`).
     distance_m
         Distance from the entrance pupil along the optical axis to the target's
-        centre (m).
+        centre (m, > 0); for ``bottom`` the camera's altitude above it.
     size_m
         Characteristic size: chart width, disk diameter, edge-target width,
-        mesh scale (m).
+        mesh scale (m, > 0).
     mesh_path
-        OBJ/PLY file for ``mesh``.
+        OBJ/PLY file for ``mesh`` (required for it; read when rendered).
     reflectance_wavelength_nm, reflectance
-        Reflectance spectrum for disks, meshes and the bottom (0…1).
+        Reflectance spectrum for disks, meshes and the bottom: wavelengths (nm)
+        strictly increasing, values >= 0 (0…1; the renderers refuse values above 1),
+        one per wavelength; both empty for the kind's own reflectance.
     tilt_deg
         Rotation about the optical axis (slanted edge: 5° by ISO 12233).
     offset_m
@@ -231,64 +334,96 @@ class Target:
         then about its own horizontal axis (deg).
     """
 
-    kind: str
-    distance_m: float
-    size_m: float = 0.3
+    kind: TargetKind
+    distance_m: _PositiveM
+    size_m: _PositiveM = 0.3
     mesh_path: str | None = None
-    reflectance_wavelength_nm: tuple[float, ...] = ()
-    reflectance: tuple[float, ...] = ()
-    tilt_deg: float = 0.0
-    offset_m: tuple[float, float] = (0.0, 0.0)
-    yaw_deg: float = 0.0
-    pitch_deg: float = 0.0
+    reflectance_wavelength_nm: _Wavelengths = ()
+    reflectance: float_table(nonnegative=True) = ()
+    tilt_deg: _Degrees = 0.0
+    offset_m: tuple[_Metres, _Metres] = (0.0, 0.0)
+    yaw_deg: _Degrees = 0.0
+    pitch_deg: _Degrees = 0.0
+
+    @model_validator(mode="after")
+    def _check(self) -> "Target":
+        if self.kind == "mesh" and not self.mesh_path:
+            raise invalid("a mesh target needs mesh_path", field="mesh_path", allowed="an OBJ or PLY file")
+        _same_length(self, "reflectance", "reflectance_wavelength_nm")
+        return self
 
 
-@dataclass(frozen=True)
+@frozen_type
 class Daylight:
     """Ambient daylight at depth (filled in by the daylight issue's models).
 
     Attributes
     ----------
     depth_m
-        Depth of the camera below the surface (m).
+        Depth of the camera below the surface (m, > 0).
     sun_zenith_deg, sun_azimuth_deg
-        Sun position above the surface (deg).
+        Sun position above the surface (deg; zenith 0 <= z < 90).
     surface_irradiance_wavelength_nm, surface_irradiance
-        Plane irradiance just above the surface, W/(m²·nm).
+        Plane irradiance just above the surface, W/(m²·nm) (>= 0, one per wavelength;
+        both empty: the clear-sky model).
     model
         ``"kd"`` (fast: Kd attenuation) or ``"monte-carlo"`` (through the water column).
     sky
         Sky radiance model above the sea: ``"cie"`` (CIE clear sky for the sun),
         ``"cie:N"``, ``"uniform"`` or ``"black"`` (:func:`rigsim.daylight.sky_model`).
     photons
-        Photons per wavelength of the Monte Carlo field (``model="monte-carlo"``).
+        Photons per wavelength of the Monte Carlo field (``model="monte-carlo"``), >= 100.
     waves
         Surface for caustics on the sun beam: ``"flat"`` (none), ``"sines"`` (one
         sine wave of ``wave_amplitude_m``, ``wave_length_m``, ``wave_direction_deg``)
         or ``"pierson-moskowitz"`` (a wind sea of ``wind_speed_m_s`` towards
         ``wave_direction_deg``).
     wind_speed_m_s, wave_amplitude_m, wave_length_m, wave_direction_deg
-        Wave parameters (m/s, m, m, deg from +z towards +x).
+        Wave parameters (m/s > 0, m >= 0, m > 0, deg from +z towards +x).
     """
 
-    depth_m: float
-    sun_zenith_deg: float = 30.0
-    sun_azimuth_deg: float = 0.0
-    surface_irradiance_wavelength_nm: tuple[float, ...] = ()
-    surface_irradiance: tuple[float, ...] = ()
-    model: Literal["kd", "monte-carlo"] = "kd"
+    depth_m: _PositiveM
+    sun_zenith_deg: Annotated[Real, Field(ge=0, lt=90), Unit("deg")] = 30.0
+    sun_azimuth_deg: _Degrees = 0.0
+    surface_irradiance_wavelength_nm: _Wavelengths = ()
+    surface_irradiance: float_table(nonnegative=True, unit="W/(m²·nm)") = ()
+    model: DaylightModel = "kd"
     sky: str = "cie"
-    photons: int = 20_000
-    waves: Literal["flat", "sines", "pierson-moskowitz"] = "flat"
-    wind_speed_m_s: float = 5.0
-    wave_amplitude_m: float = 0.05
-    wave_length_m: float = 1.0
-    wave_direction_deg: float = 0.0
+    photons: Annotated[Int, Field(ge=100)] = 20_000
+    waves: WaveKind = "flat"
+    wind_speed_m_s: Annotated[Real, Field(gt=0), Unit("m/s")] = 5.0
+    wave_amplitude_m: _NonNegativeM = 0.05
+    wave_length_m: _PositiveM = 1.0
+    wave_direction_deg: _Degrees = 0.0
+
+    @model_validator(mode="after")
+    def _check(self) -> "Daylight":
+        _same_length(self, "surface_irradiance", "surface_irradiance_wavelength_nm")
+        from rigsim.daylight.sky import sky_model  # the one parser of sky names (imported late: no cycle)
+        from rigsim.errors import ConfigError
+
+        try:
+            sky_model(self.sky, self.sun_zenith_deg)
+        except ConfigError as exc:
+            raise invalid(exc.message, field="sky", allowed=exc.allowed) from None
+        return self
 
 
-@dataclass(frozen=True, eq=False)
+@frozen_type(eq=False, arbitrary_types=True)
 class Scene:
-    """Everything a renderer needs: rig, water, targets and optional daylight."""
+    """Everything a renderer needs: rig, water, targets and optional daylight.
+
+    Attributes
+    ----------
+    rig
+        Camera and lights.
+    water
+        The :class:`~rigsim.water.model.Water` (its own classes validate it), or None.
+    targets
+        What the camera looks at.
+    daylight
+        Ambient daylight at depth, or None.
+    """
 
     rig: Rig
     water: Water | None  # None: no water (vacuum/air) — the "clear" ground truth

@@ -43,14 +43,15 @@ tree (:data:`rigsim.data.DATA_DIR`).
 from __future__ import annotations
 
 import functools
-import tomllib
+import numbers
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
+from typing import Annotated, Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import BeforeValidator, Field, model_validator
 
+from rigsim.config.schema import FileModel, Int, Real, invalid, load_file
 from rigsim.data import DATA_DIR, read_csv_table
 from rigsim.errors import ConfigError, DataError, unknown_name_error
 from rigsim.spectrum import interp_table
@@ -66,92 +67,90 @@ CFA_PATTERNS = ("RGGB", "BGGR", "GRBG", "GBRG")
 
 
 # ---------------------------------------------------------------- file schema (pydantic)
-class _Strict(BaseModel):
-    model_config = ConfigDict(extra="forbid", frozen=True)
+_SOURCE_EXTRA = ("spectral", "resolution", "pixel_pitch_um", "black_level_dn", "bit_depth", "ir_cut")
 
 
-class _SensorSection(_Strict):
+def _resolution(v: Any) -> tuple[int, int]:
+    if not isinstance(v, (list, tuple)) or len(v) != 2 or any(
+            isinstance(x, bool) or not isinstance(x, numbers.Real) or not float(x).is_integer() for x in v):
+        raise invalid(f"must be [rows, cols], two whole numbers, got {v!r}", allowed="[rows, cols], each >= 2")
+    if v[0] < 2 or v[1] < 2:
+        raise invalid(f"rows and cols must be >= 2, got {list(v)}", allowed="[rows, cols], each >= 2")
+    return int(v[0]), int(v[1])
+
+
+def _peak_qe(v: Any) -> float | tuple[float, float, float]:
+    allowed = "0 < QE <= 1: one number, or [r, g, b]"
+    vals = v if isinstance(v, (list, tuple)) else [v]
+    if len(vals) not in (1, 3) or any(isinstance(q, bool) or not isinstance(q, numbers.Real) for q in vals):
+        raise invalid(f"must be a number or 3 numbers [r, g, b], got {v!r}", allowed=allowed)
+    if any(not (0 < q <= 1) for q in vals):
+        raise invalid(f"peak QE must be in (0, 1], got {v!r}", allowed=allowed)
+    return float(vals[0]) if not isinstance(v, (list, tuple)) else tuple(float(q) for q in vals)  # type: ignore
+
+
+class _SensorSection(FileModel):
     name: str
     description: str = ""
     cfa_pattern: Literal["RGGB", "BGGR", "GRBG", "GBRG"]
-    pixel_pitch_um: float = Field(gt=0.3, le=50)
-    resolution: tuple[int, int]
-    bit_depth: int = Field(ge=8, le=16)
-    black_level_dn: float = Field(ge=0)
+    pixel_pitch_um: Annotated[Real, Field(gt=0.3, le=50)]
+    resolution: Annotated[tuple[int, int], BeforeValidator(_resolution)]
+    bit_depth: Annotated[Int, Field(ge=8, le=16)]
+    black_level_dn: Annotated[Real, Field(ge=0)]
 
-    @field_validator("resolution")
-    @classmethod
-    def _res(cls, v):
-        if v[0] < 2 or v[1] < 2:
-            raise ValueError("rows and cols must be >= 2")
-        return v
+    @model_validator(mode="after")
+    def _black_below_white(self) -> "_SensorSection":
+        max_dn = 2 ** self.bit_depth - 1
+        if self.black_level_dn >= max_dn:
+            raise invalid(f"black level {self.black_level_dn:g} DN >= white level {max_dn}", field="black_level_dn",
+                          allowed=f"0 … {max_dn - 1}")
+        return self
 
 
-class _SpectralSection(_Strict):
+class _SpectralSection(FileModel):
     file: str
-    peak_qe: float | tuple[float, float, float]
+    peak_qe: Annotated[float | tuple[float, float, float], BeforeValidator(_peak_qe)]
     ir_cut_file: str | None = None
 
-    @field_validator("peak_qe")
-    @classmethod
-    def _qe(cls, v):
-        vals = (v,) if isinstance(v, float) else v
-        if any(not (0 < q <= 1) for q in vals):
-            raise ValueError("peak QE must be in (0, 1]")
-        return v
+
+class _NoiseSection(FileModel):
+    full_well_e: Annotated[Real, Field(gt=0)]
+    dark_current_e_per_s: Annotated[Real, Field(ge=0)]
+    dark_current_ref_temp_c: Annotated[Real, Field(ge=-100, le=150)]
+    dark_current_doubling_c: Annotated[Real, Field(gt=0)]
+    prnu_percent: Annotated[Real, Field(ge=0, le=100)]
+    dsnu_e: Annotated[Real, Field(ge=0)]
 
 
-class _NoiseSection(_Strict):
-    full_well_e: float = Field(gt=0)
-    dark_current_e_per_s: float = Field(ge=0)
-    dark_current_ref_temp_c: float = Field(ge=-100, le=150)
-    dark_current_doubling_c: float = Field(gt=0)
-    prnu_percent: float = Field(ge=0, le=100)
-    dsnu_e: float = Field(ge=0)
+class _IsoEntry(FileModel):
+    iso: Annotated[Real, Field(gt=0)]
+    gain_dn_per_e: Annotated[Real, Field(gt=0)]
+    read_noise_e: Annotated[Real, Field(ge=0)]
 
 
-class _IsoEntry(_Strict):
-    iso: float = Field(gt=0)
-    gain_dn_per_e: float = Field(gt=0)
-    read_noise_e: float = Field(ge=0)
+class _SensorFile(FileModel):
+    """A sensor file (see the module docstring); every noise key must be cited in ``[sources]``."""
 
-
-class _SensorFile(_Strict):
     sensor: _SensorSection
     spectral: _SpectralSection
     noise: _NoiseSection
     iso: list[_IsoEntry] = Field(min_length=1)
     sources: dict[str, str]
 
-
-_ALLOWED_HINT = {
-    "greater_than": lambda c: f"> {c.get('gt')}",
-    "greater_than_equal": lambda c: f">= {c.get('ge')}",
-    "less_than_equal": lambda c: f"<= {c.get('le')}",
-    "less_than": lambda c: f"< {c.get('lt')}",
-    "literal_error": lambda c: c.get("expected", ""),
-    "too_short": lambda c: f"at least {c.get('min_length')} entries",
-}
-
-
-def _pydantic_to_config_error(exc: ValidationError, path: Path) -> ConfigError:
-    err = exc.errors()[0]
-    loc = [str(p) for p in err["loc"]]
-    fld = ".".join(loc)
-    ctx = err.get("ctx") or {}
-    if err["type"] == "extra_forbidden":
-        parent = _SensorFile
-        for part in loc[:-1]:
-            if part.isdigit():
-                continue
-            ann = parent.model_fields[part].annotation
-            parent = getattr(ann, "__args__", (ann,))[0] if part == "iso" else ann
-        known = list(parent.model_fields)
-        return ConfigError(f"unknown key {loc[-1]!r}", file=path, field=fld, allowed=", ".join(known))
-    if err["type"] == "missing":
-        return ConfigError("missing required key", file=path, field=fld)
-    hint = _ALLOWED_HINT.get(err["type"], lambda c: None)(ctx)
-    return ConfigError(f"{err['msg']} (got {err.get('input')!r})", file=path, field=fld, allowed=hint)
+    @model_validator(mode="after")
+    def _check(self) -> "_SensorFile":
+        missing = [k for k in NOISE_KEYS if not self.sources.get(k, "").strip()]
+        if missing:
+            raise invalid(f"no source given for {', '.join(missing)}", field="sources",
+                          allowed="a citation (URL, paper) or 'assumption: <reason>' for every noise key")
+        unknown_src = sorted(set(self.sources) - set(NOISE_KEYS) - set(_SOURCE_EXTRA))
+        if unknown_src:
+            raise invalid(f"unknown key {unknown_src[0]!r}", field="sources",
+                          allowed=", ".join(NOISE_KEYS + _SOURCE_EXTRA))
+        isos = [e.iso for e in self.iso]
+        if len(set(isos)) != len(isos):
+            raise invalid("duplicate ISO entries", field="iso", allowed="distinct iso values")
+        return self
 
 
 # ---------------------------------------------------------------- typed description
@@ -337,31 +336,8 @@ def load_sensor_file(path: str | Path) -> Sensor:
         missing keys, out-of-range values, missing citations or unreadable CSVs.
     """
     path = Path(path)
-    try:
-        raw = tomllib.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise ConfigError(f"cannot read sensor file: {exc.strerror or exc}", file=path) from None
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"not valid TOML: {exc}", file=path) from None
-    try:
-        cfg = _SensorFile.model_validate(raw)
-    except ValidationError as exc:
-        raise _pydantic_to_config_error(exc, path) from None
-
-    missing = [k for k in NOISE_KEYS if not cfg.sources.get(k, "").strip()]
-    if missing:
-        raise ConfigError(f"no source given for {', '.join(missing)}", file=path, field="sources",
-                          allowed="a citation (URL, paper) or 'assumption: <reason>' for every noise key")
-    unknown_src = set(cfg.sources) - set(NOISE_KEYS) - {"spectral", "resolution", "pixel_pitch_um",
-                                                        "black_level_dn", "bit_depth", "ir_cut"}
-    if unknown_src:
-        raise ConfigError(f"unknown key {sorted(unknown_src)[0]!r}", file=path, field="sources",
-                          allowed=", ".join(NOISE_KEYS) + ", spectral, resolution, pixel_pitch_um, "
-                                  "black_level_dn, bit_depth, ir_cut")
-
+    cfg = load_file(_SensorFile, path)
     isos = sorted(cfg.iso, key=lambda e: e.iso)
-    if len({e.iso for e in isos}) != len(isos):
-        raise ConfigError("duplicate ISO entries", file=path, field="iso", allowed="distinct iso values")
 
     wl, rel = _read_spectral_csv(_resolve(cfg.spectral.file, path, "spectral.file"),
                                  ("red", "green", "blue"), path, "spectral.file")
@@ -379,10 +355,6 @@ def load_sensor_file(path: str | Path) -> Sensor:
 
     s = cfg.sensor
     n = cfg.noise
-    max_dn = 2 ** s.bit_depth - 1
-    if s.black_level_dn >= max_dn:
-        raise ConfigError(f"black level {s.black_level_dn:g} DN >= white level {max_dn}", file=path,
-                          field="sensor.black_level_dn", allowed=f"0 … {max_dn - 1}")
     return Sensor(name=s.name, description=s.description, wavelength_nm=wl, qe=qe,
                   cfa_pattern=s.cfa_pattern, pixel_pitch_um=s.pixel_pitch_um,
                   resolution=tuple(s.resolution), full_well_e=n.full_well_e,

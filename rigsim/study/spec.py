@@ -48,28 +48,22 @@ from __future__ import annotations
 
 import hashlib
 import json
-from dataclasses import asdict, dataclass, field, replace
+import numbers
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any, Literal
 
 import numpy as np
+from pydantic import BeforeValidator, Field, field_validator, model_validator
 
-from rigsim.config.tomlfile import check_keys, get_number, read_toml
-from rigsim.errors import ConfigError, RigsimError
+from rigsim.config.schema import FileModel, Int, Real, Unit, WavelengthGrid, invalid, names_list, read_toml, validate
+from rigsim.errors import ConfigError, RigsimError, unknown_name_error
 from rigsim.spectrum import parse_wavelength_range
 
-__all__ = ["RenderSettings", "CaptureSettings", "StudySpec", "Case", "load_study", "TARGETS"]
+__all__ = ["RenderSettings", "CaptureSettings", "StudySpec", "Case", "load_study", "TARGETS", "StudyFile"]
 
 #: Built-in target names (besides mesh files).
 TARGETS = ("colorchecker", "black-disk", "white-disk", "slanted-edge", "bottom")
-
-_STUDY_KEYS = ("name", "description", "seed")
-_SWEEP_KEYS = ("rigs", "sensors", "waters", "distances_m", "targets", "depth_m", "target_fill")
-_RENDER_KEYS = ("width", "height", "spp", "wavelengths", "engine", "integrator", "noise_target", "max_spp")
-_CAPTURE_KEYS = ("exposure", "iso", "shutter_s", "white_balance", "demosaic", "target_percentile",
-                 "target_level")
-_METRIC_KEYS = ("contrast_threshold",)
-_QUICK_KEYS = _RENDER_KEYS + _SWEEP_KEYS
 
 
 @dataclass(frozen=True)
@@ -178,30 +172,152 @@ def sensor_key(name: str) -> str:
     return base[:-5] if base.endswith(".toml") else base
 
 
-def _str_list(t: dict, key: str, *, file, prefix: str) -> list[str]:
-    v = t.get(key)
-    if v is None:
-        raise ConfigError("missing", file=file, field=f"{prefix}{key}", allowed="a non-empty list")
-    if isinstance(v, str):
-        v = [v]
-    if not isinstance(v, list) or not v or not all(isinstance(x, str) for x in v):
-        raise ConfigError(f"must be a non-empty list of names, got {v!r}", file=file, field=f"{prefix}{key}")
-    return v
+# ---------------------------------------------------------------------------- the file schema
 
-
-def _num_list(t: dict, key: str, *, file, prefix: str) -> list[float]:
-    v = t.get(key)
-    if v is None:
-        raise ConfigError("missing", file=file, field=f"{prefix}{key}", allowed="a non-empty list of numbers")
-    if isinstance(v, (int, float)) and not isinstance(v, bool):
+def _distances(v: Any) -> tuple[float, ...]:
+    """``distances_m``: a number or a non-empty list of them, positive, increasing and distinct."""
+    if isinstance(v, numbers.Real) and not isinstance(v, bool):
         v = [v]
-    if not isinstance(v, list) or not v or not all(isinstance(x, (int, float)) and not isinstance(x, bool)
+    if not isinstance(v, list) or not v or not all(isinstance(x, numbers.Real) and not isinstance(x, bool)
                                                    for x in v):
-        raise ConfigError(f"must be a non-empty list of numbers, got {v!r}", file=file, field=f"{prefix}{key}")
-    if any(x <= 0 for x in v) or sorted(v) != list(v) or len(set(v)) != len(v):
-        raise ConfigError(f"must be positive, increasing and distinct, got {v}", file=file,
-                          field=f"{prefix}{key}", allowed="> 0 m, increasing")
-    return [float(x) for x in v]
+        raise invalid(f"must be a non-empty list of numbers, got {v!r}", allowed="a non-empty list of numbers")
+    if any(not np.isfinite(x) or x <= 0 for x in v) or sorted(v) != list(v) or len(set(v)) != len(v):
+        raise invalid(f"must be positive, increasing and distinct, got {v}", allowed="> 0 m, increasing")
+    return tuple(float(x) for x in v)
+
+
+_Names = names_list()
+_Distances = Annotated[tuple[float, ...], BeforeValidator(_distances)]
+_Depth = Annotated[Real, Field(gt=0)]
+_TargetFill = Annotated[Real, Field(gt=0, le=1)]
+_ImageSide = Annotated[Int, Field(ge=8, le=8192)]
+_Spp = Annotated[Int, Field(ge=1, le=1 << 20)]
+_NoiseTarget = Annotated[Real, Field(gt=0, le=10)]
+_MaxSpp = Annotated[Int, Field(ge=1, le=1 << 24)]
+_DEFAULT_WAVELENGTHS = tuple(float(x) for x in parse_wavelength_range("400:700:10"))
+_Engine = Literal["mitsuba", "preview"]
+_Integrator = Literal["rigsim", "volpath"]
+
+
+class StudyTable(FileModel):
+    """``[study]``: a name (default: the file's stem), free text, and the seed (>= 0)."""
+
+    name: str | None = None
+    description: str = ""
+    seed: Annotated[Int, Field(ge=0)] = 1
+
+
+class SweepTable(FileModel):
+    """``[sweep]``: what is varied (rig, sensor and water files or names, distances in m, targets)."""
+
+    rigs: _Names
+    sensors: _Names
+    waters: _Names
+    distances_m: _Distances
+    targets: _Names = ("colorchecker",)
+    depth_m: _Depth | None = None
+    target_fill: _TargetFill | None = None
+
+
+class RenderTable(FileModel):
+    """``[render]``: image size (px), paths per pixel, wavelengths (nm), engine and noise target."""
+
+    width: _ImageSide = 128
+    height: _ImageSide = 96
+    spp: _Spp = 64
+    wavelengths: WavelengthGrid = _DEFAULT_WAVELENGTHS
+    engine: _Engine = "mitsuba"
+    integrator: _Integrator = "rigsim"
+    noise_target: _NoiseTarget | None = None
+    max_spp: _MaxSpp | None = None
+
+    @model_validator(mode="after")
+    def _check(self) -> "RenderTable":
+        if self.max_spp is not None and self.max_spp < self.spp:
+            raise invalid(f"max_spp {self.max_spp} is below spp {self.spp}", field="max_spp",
+                          allowed=f">= spp ({self.spp})")
+        return self
+
+    def settings(self) -> RenderSettings:
+        """The :class:`RenderSettings`."""
+        return RenderSettings(width=self.width, height=self.height, spp=self.spp, wavelengths_nm=self.wavelengths,
+                              engine=self.engine, integrator=self.integrator, noise_target=self.noise_target,
+                              max_spp=self.max_spp)
+
+
+class CaptureTable(FileModel):
+    """``[capture]``: exposure (``auto``, or ``manual`` ISO and shutter in s), white balance, demosaicing."""
+
+    exposure: Literal["auto", "manual"] = "auto"
+    iso: Annotated[Real, Field(ge=1)] = 100.0
+    shutter_s: Annotated[Real, Field(gt=0, le=3600), Unit("s")] = 1 / 125
+    white_balance: str = "auto"
+    demosaic: str = "Malvar2004"
+    target_percentile: Annotated[Real, Field(ge=1, le=100)] = 99.0
+    target_level: Annotated[Real, Field(gt=0, le=1)] = 0.8
+
+    @field_validator("white_balance")
+    @classmethod
+    def _wb(cls, v: str) -> str:
+        from rigsim.sensor.white_balance import WHITE_BALANCE_METHODS
+
+        if v != "auto" and v not in WHITE_BALANCE_METHODS:
+            exc = unknown_name_error("white balance", v, ["auto", *WHITE_BALANCE_METHODS])
+            raise invalid(exc.message, allowed=exc.allowed)
+        return v
+
+    @field_validator("demosaic")
+    @classmethod
+    def _demosaic(cls, v: str) -> str:
+        from rigsim.sensor.demosaic import DEMOSAICING_METHODS
+
+        if v not in DEMOSAICING_METHODS:
+            exc = unknown_name_error("demosaicing method", v, DEMOSAICING_METHODS)
+            raise invalid(exc.message, allowed=exc.allowed)
+        return v
+
+    def settings(self) -> CaptureSettings:
+        """The :class:`CaptureSettings`."""
+        return CaptureSettings(exposure=self.exposure, iso=self.iso, shutter_s=self.shutter_s,
+                               white_balance=self.white_balance, demosaic=self.demosaic,
+                               target_percentile=self.target_percentile, target_level=self.target_level)
+
+
+class MetricsTable(FileModel):
+    """``[metrics]``: the contrast threshold of the visibility range (0 < C <= 1)."""
+
+    contrast_threshold: Annotated[Real, Field(gt=0, le=1)] = 0.02
+
+
+class QuickTable(FileModel):
+    """``[quick]``: render and sweep values used instead with ``--quick`` (CI)."""
+
+    width: _ImageSide | None = None
+    height: _ImageSide | None = None
+    spp: _Spp | None = None
+    wavelengths: WavelengthGrid | None = None
+    engine: _Engine | None = None
+    integrator: _Integrator | None = None
+    noise_target: _NoiseTarget | None = None
+    max_spp: _MaxSpp | None = None
+    rigs: _Names | None = None
+    sensors: _Names | None = None
+    waters: _Names | None = None
+    distances_m: _Distances | None = None
+    targets: _Names | None = None
+    depth_m: _Depth | None = None
+    target_fill: _TargetFill | None = None
+
+
+class StudyFile(FileModel):
+    """A whole study file (see the module docstring)."""
+
+    study: StudyTable = StudyTable()
+    sweep: SweepTable
+    render: RenderTable = RenderTable()
+    capture: CaptureTable = CaptureTable()
+    metrics: MetricsTable = MetricsTable()
+    quick: QuickTable | None = None
 
 
 def _resolve(p: str, base: Path) -> str:
@@ -209,34 +325,50 @@ def _resolve(p: str, base: Path) -> str:
     return str(q if q.is_absolute() else (base / q).resolve())
 
 
+def _with_quick(doc: dict, path: Path) -> StudyFile:
+    """The study with its ``[quick]`` values in place (and one batch unless ``[quick]`` asks for more)."""
+    quick = doc.get("quick", {})
+    sweep_keys = set(SweepTable.model_fields)
+    render = {k: v for k, v in doc.get("render", {}).items() if k not in ("noise_target", "max_spp")}
+    sweep = dict(doc["sweep"])
+    for k, v in quick.items():
+        (sweep if k in sweep_keys else render)[k] = v
+    try:
+        return validate(StudyFile, {**doc, "sweep": sweep, "render": render, "quick": quick}, file=path)
+    except ConfigError as exc:  # a check across keys that failed because of a [quick] value: say so
+        key = (exc.field or "").split(".", 1)[-1]
+        if key in quick:
+            raise ConfigError(exc.message, file=path, field=f"quick.{key}", allowed=exc.allowed) from None
+        raise
+
+
 def load_study(path: str | Path, *, quick: bool = False) -> StudySpec:
     """Read and validate a study file: every rig, sensor and water is loaded (so a typo fails
-    here, before any rendering), distances and targets are checked."""
+    here, before any rendering), distances and targets are checked.
+
+    Parameters
+    ----------
+    path
+        The study TOML (relative rig, sensor, water and mesh files resolve against its folder).
+    quick
+        Use the ``[quick]`` table's values (small images, few paths; one batch).
+
+    Raises
+    ------
+    ConfigError
+        One line naming the file, the field (``sweep.waters[0]``, ``render.spp``) and
+        what is allowed.
+    """
     path = Path(path)
     doc = read_toml(path)
-    check_keys(doc, ("study", "sweep", "render", "capture", "metrics", "quick"), file=path)
-    for sec, keys in (("study", _STUDY_KEYS), ("sweep", _SWEEP_KEYS), ("render", _RENDER_KEYS),
-                      ("capture", _CAPTURE_KEYS), ("metrics", _METRIC_KEYS), ("quick", _QUICK_KEYS)):
-        if sec in doc:
-            if not isinstance(doc[sec], dict):
-                raise ConfigError("must be a table", file=path, field=sec)
-            check_keys(doc[sec], keys, file=path, prefix=f"{sec}.")
-    if "sweep" not in doc:
-        raise ConfigError("missing [sweep] table", file=path, field="sweep")
-    study = doc.get("study", {})
-    sweep = dict(doc["sweep"])
-    render = dict(doc.get("render", {}))
+    f = validate(StudyFile, doc, file=path)
     if quick:
-        # the quick run renders one batch unless [quick] asks for a noise target itself
-        for k in ("noise_target", "max_spp"):
-            render.pop(k, None)
-    if quick and "quick" in doc:
-        for k, v in doc["quick"].items():
-            (sweep if k in _SWEEP_KEYS else render)[k] = v
+        f = _with_quick(doc, path)
     base = path.parent
+    sweep = f.sweep
 
-    # --- sweep
-    rig_files = [_resolve(r, base) for r in _str_list(sweep, "rigs", file=path, prefix="sweep.")]
+    # --- sweep: every file and name is loaded now
+    rig_files = [_resolve(r, base) for r in sweep.rigs]
     rig_names = []
     try:
         from rigsim.config.rig import load_rig
@@ -250,20 +382,19 @@ def load_study(path: str | Path, *, quick: bool = False) -> StudySpec:
     if len(set(rig_names)) != len(rig_names):
         raise ConfigError(f"rig names must differ, got {rig_names}", file=path, field="sweep.rigs")
 
-    sensors = _str_list(sweep, "sensors", file=path, prefix="sweep.")
     from rigsim.sensor import load_sensor
 
-    for i, s in enumerate(sensors):
+    for i, s in enumerate(sweep.sensors):
         try:
             load_sensor(s if not s.endswith(".toml") else _resolve(s, base))
         except ConfigError as exc:
             raise ConfigError(f"sensor {s!r}: {exc}", file=path, field=f"sweep.sensors[{i}]") from None
-    sensors = [s if not s.endswith(".toml") else _resolve(s, base) for s in sensors]
+    sensors = [s if not s.endswith(".toml") else _resolve(s, base) for s in sweep.sensors]
 
     from rigsim.config.water import load_water
 
     waters, water_names = [], []
-    for i, w in enumerate(_str_list(sweep, "waters", file=path, prefix="sweep.")):
+    for i, w in enumerate(sweep.waters):
         spec = _resolve(w, base) if w.endswith(".toml") else w
         try:
             water = load_water(spec)
@@ -272,86 +403,15 @@ def load_study(path: str | Path, *, quick: bool = False) -> StudySpec:
         waters.append(spec)
         water_names.append(water.name)
 
-    distances = _num_list(sweep, "distances_m", file=path, prefix="sweep.")
-    targets = _str_list(sweep, "targets", file=path, prefix="sweep.") if "targets" in sweep else ["colorchecker"]
-    for i, t in enumerate(targets):
+    for i, t in enumerate(sweep.targets):
         if t not in TARGETS and not Path(_resolve(t, base)).is_file():
-            from rigsim.errors import unknown_name_error
-
             raise unknown_name_error("target", t, TARGETS, file=path, field=f"sweep.targets[{i}]")
-    targets = [t if t in TARGETS else _resolve(t, base) for t in targets]
-    depth = get_number(sweep, "depth_m", file=path, prefix="sweep.", minimum=0.0)
-    fill = get_number(sweep, "target_fill", file=path, prefix="sweep.", minimum=0.0, exclusive_minimum=True,
-                      maximum=1.0)
+    targets = [t if t in TARGETS else _resolve(t, base) for t in sweep.targets]
 
-    # --- render
-    wl = render.get("wavelengths", "400:700:10")
-    try:
-        wls = parse_wavelength_range(str(wl)) if not isinstance(wl, list) else np.array(wl, float)
-    except ConfigError as exc:
-        raise ConfigError(exc.message, file=path, field="render.wavelengths", allowed=exc.allowed) from None
-    engine = render.get("engine", "mitsuba")
-    if engine not in ("mitsuba", "preview"):
-        raise ConfigError(f"unknown engine {engine!r}", file=path, field="render.engine", allowed="mitsuba, preview")
-    integ = render.get("integrator", "rigsim")
-    if integ not in ("rigsim", "volpath"):
-        raise ConfigError(f"unknown integrator {integ!r}", file=path, field="render.integrator",
-                          allowed="rigsim (equiangular light sampling), volpath (Mitsuba's)")
-    rs = RenderSettings(
-        width=int(get_number(render, "width", file=path, prefix="render.", default=128, minimum=8, maximum=8192)),
-        height=int(get_number(render, "height", file=path, prefix="render.", default=96, minimum=8, maximum=8192)),
-        spp=int(get_number(render, "spp", file=path, prefix="render.", default=64, minimum=1, maximum=1 << 20)),
-        wavelengths_nm=tuple(float(x) for x in wls), engine=engine, integrator=integ,
-        noise_target=get_number(render, "noise_target", file=path, prefix="render.", default=None, minimum=0.0,
-                                exclusive_minimum=True, maximum=10.0),
-        max_spp=(None if "max_spp" not in render else
-                 int(get_number(render, "max_spp", file=path, prefix="render.", minimum=1, maximum=1 << 24))))
-    if rs.max_spp is not None and rs.max_spp < rs.spp:
-        raise ConfigError(f"max_spp {rs.max_spp} is below spp {rs.spp}", file=path, field="render.max_spp",
-                          allowed=f">= spp ({rs.spp})")
-
-    cap = doc.get("capture", {})
-    mode = cap.get("exposure", "auto")
-    if mode not in ("auto", "manual"):
-        raise ConfigError(f"unknown exposure mode {mode!r}", file=path, field="capture.exposure",
-                          allowed="auto, manual")
-    from rigsim.sensor.demosaic import DEMOSAICING_METHODS
-    from rigsim.sensor.white_balance import WHITE_BALANCE_METHODS
-
-    wb = cap.get("white_balance", "auto")
-    if wb != "auto" and wb not in WHITE_BALANCE_METHODS:
-        from rigsim.errors import unknown_name_error
-
-        raise unknown_name_error("white balance", str(wb), ["auto", *WHITE_BALANCE_METHODS], file=path,
-                                 field="capture.white_balance")
-    dm = cap.get("demosaic", "Malvar2004")
-    if dm not in DEMOSAICING_METHODS:
-        from rigsim.errors import unknown_name_error
-
-        raise unknown_name_error("demosaicing method", str(dm), DEMOSAICING_METHODS, file=path,
-                                 field="capture.demosaic")
-    cs = CaptureSettings(
-        exposure=mode,
-        iso=get_number(cap, "iso", file=path, prefix="capture.", default=100.0, minimum=1.0),
-        shutter_s=get_number(cap, "shutter_s", file=path, prefix="capture.", default=1 / 125, minimum=0.0,
-                             exclusive_minimum=True, maximum=3600.0),
-        white_balance=wb, demosaic=dm,
-        target_percentile=get_number(cap, "target_percentile", file=path, prefix="capture.", default=99.0,
-                                     minimum=1.0, maximum=100.0),
-        target_level=get_number(cap, "target_level", file=path, prefix="capture.", default=0.8,
-                                minimum=0.0, exclusive_minimum=True, maximum=1.0))
-    met = doc.get("metrics", {})
-    thr = get_number(met, "contrast_threshold", file=path, prefix="metrics.", default=0.02, minimum=0.0,
-                     exclusive_minimum=True, maximum=1.0)
-    seed = get_number(study, "seed", file=path, prefix="study.", default=1, minimum=0)
     return StudySpec(
-        name=str(study.get("name", path.stem)), description=str(study.get("description", "")),
-        seed=int(seed), rigs=tuple(rig_files), rig_names=tuple(rig_names), sensors=tuple(sensors),
-        waters=tuple(waters), water_names=tuple(water_names), distances_m=tuple(distances),
-        targets=tuple(targets), depth_m=depth, target_fill=fill, render=rs, capture=cs, contrast_threshold=thr,
+        name=f.study.name if f.study.name is not None else path.stem, description=f.study.description,
+        seed=f.study.seed, rigs=tuple(rig_files), rig_names=tuple(rig_names), sensors=tuple(sensors),
+        waters=tuple(waters), water_names=tuple(water_names), distances_m=sweep.distances_m,
+        targets=tuple(targets), depth_m=sweep.depth_m, target_fill=sweep.target_fill, render=f.render.settings(),
+        capture=f.capture.settings(), contrast_threshold=f.metrics.contrast_threshold,
         source=str(path.resolve()), quick=quick)
-
-
-def with_overrides(spec: StudySpec, **kw: Any) -> StudySpec:
-    """A copy with some fields replaced (tests, CLI flags)."""
-    return replace(spec, **kw)

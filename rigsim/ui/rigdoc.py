@@ -2,12 +2,15 @@
 
 The designer edits a rig the way a diver thinks about it — arm length and angle,
 yaw and pitch, beam angle, power — while the document keeps the rig file's own
-table (as read by ``tomllib``).  Each edit rewrites the light's keys in one of the
-forms ``rigs/README.md`` allows (the *arm convention* for positions, ``yaw_deg`` /
-``pitch_deg`` or ``aim_at_m`` for aims), is validated by
+table (as read by :func:`rigsim.config.schema.read_toml`).  Each edit rewrites the
+light's keys in one of the forms ``rigs/README.md`` allows (the *arm convention* for
+positions, ``yaw_deg`` / ``pitch_deg`` or ``aim_at_m`` for aims), is validated by
 :func:`rigsim.config.rig.parse_rig` (so the app and the CLI accept exactly the same
 rigs) and is refused with that function's one-line message if it is invalid.
 Untouched keys — comments aside — survive a load/save round trip.
+
+The file's conventions (arm, yaw/pitch, default spectra, spectrum names) and their
+inverses come from :mod:`rigsim.config.rig`, the one implementation.
 
 :func:`dumps_toml` writes the table back as TOML in the layout of the shipped
 rigs (``[rig]``, ``[camera]``, ``[port]``, ``[[lights]]``).
@@ -33,22 +36,28 @@ import copy
 import json
 import math
 import os
-import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from rigsim.config.rig import parse_rig
-from rigsim.config.tomlfile import read_toml
+from rigsim.config.rig import (
+    DEFAULT_SPECTRUM,
+    SPECTRUM_NAMES,
+    LightTable,
+    direction_to_yaw_pitch,
+    parse_rig,
+    position_to_arm,
+)
+from rigsim.config.schema import read_toml, toml_from_text, validate
 from rigsim.errors import ConfigError
 from rigsim.scene.types import Rig
 
 __all__ = ["RigDoc", "dumps_toml", "parse_number", "LIGHT_FIELDS", "CAMERA_FIELDS", "SPECTRA"]
 
 #: Named spectra a light may use (``blackbody:T`` and CSV files are accepted too).
-SPECTRA = ("xenon-strobe", "xenon-vivitar283", "daylight-led", "warm-led", "daylight-d65")
+SPECTRA = SPECTRUM_NAMES
 
 #: Light fields the designer edits, with the keys each one replaces in the file.
 LIGHT_FIELDS = {
@@ -94,38 +103,6 @@ def parse_number(value: Any, field: str) -> float:
     return v
 
 
-def _unit(v) -> np.ndarray:
-    a = np.asarray(v, float)
-    return a / np.linalg.norm(a)
-
-
-def _yaw_pitch(d) -> tuple[float, float]:
-    """Inverse of the rig format's ``d = (sin y cos p, sin p, cos y cos p)``."""
-    d = _unit(d)
-    pitch = math.degrees(math.asin(float(np.clip(d[1], -1.0, 1.0))))
-    yaw = math.degrees(math.atan2(float(d[0]), float(d[2])))
-    return yaw, pitch
-
-
-def _local_position(t: dict) -> np.ndarray:
-    if "position_m" in t:
-        return np.asarray(t["position_m"], float)
-    length = float(t.get("arm_length_m", 0.0))
-    a = math.radians(float(t.get("arm_angle_deg", 0.0)))
-    return np.array([length * math.cos(a), length * math.sin(a), float(t.get("arm_forward_m", 0.0))])
-
-
-def _local_aim(t: dict, pos: np.ndarray) -> np.ndarray:
-    if "aim" in t:
-        return _unit(t["aim"])
-    if "aim_at_m" in t:
-        return _unit(np.asarray(t["aim_at_m"], float) - pos)
-    if "yaw_deg" in t or "pitch_deg" in t:
-        y, p = math.radians(float(t.get("yaw_deg", 0.0))), math.radians(float(t.get("pitch_deg", 0.0)))
-        return np.array([math.sin(y) * math.cos(p), math.sin(p), math.cos(y) * math.cos(p)])
-    return np.array([0.0, 0.0, 1.0])
-
-
 def _clean(x: float, nd: int = 6) -> float:
     """Round away float noise from UI arithmetic (0.30000000000000004 → 0.3)."""
     v = round(float(x), nd)
@@ -139,7 +116,7 @@ class RigDoc:
     Attributes
     ----------
     data
-        The TOML table (``rig``, ``camera``, ``port``, ``lights``), as ``tomllib`` reads it.
+        The TOML table (``rig``, ``camera``, ``port``, ``lights``), as :func:`~rigsim.config.schema.read_toml` reads it.
     source
         What error messages name (the file name, or ``<edited rig>``).
     base_dir
@@ -161,11 +138,7 @@ class RigDoc:
 
     @classmethod
     def loads(cls, text: str, *, source: str = "<edited rig>", base_dir: Path | None = None) -> "RigDoc":
-        try:
-            data = tomllib.loads(text)
-        except tomllib.TOMLDecodeError as exc:
-            raise ConfigError(f"malformed TOML: {exc}", file=source) from None
-        doc = cls(data, source=source, base_dir=base_dir or Path.cwd())
+        doc = cls(toml_from_text(text, source=source), source=source, base_dir=base_dir or Path.cwd())
         doc.rig()
         return doc
 
@@ -194,6 +167,10 @@ class RigDoc:
     def name(self) -> str:
         return str(self.data.get("rig", {}).get("name", Path(self.source).stem))
 
+    def light_table(self, index: int) -> LightTable:
+        """Light ``index`` as the rig file's schema reads it (:class:`~rigsim.config.rig.LightTable`)."""
+        return validate(LightTable, self.data["lights"][index], file=self.source, prefix=f"lights[{index}]")
+
     def light_names(self) -> list[str]:
         return [str(t.get("name", f"light{i}")) for i, t in enumerate(self.data.get("lights", []))]
 
@@ -207,10 +184,10 @@ class RigDoc:
         ``lumens``), ``guide_number_m``, ``flash_energy_J``, ``power_fraction``, ``lumens``.
         """
         t = self.data["lights"][index]
-        pos = _local_position(t)
-        aim = _local_aim(t, pos)
-        yaw, pitch = _yaw_pitch(aim)
-        kind = str(t.get("kind", "strobe"))
+        lt = self.light_table(index)
+        arm_length, arm_angle, arm_forward = position_to_arm(lt.local_position())
+        yaw, pitch = direction_to_yaw_pitch(lt.local_aim())
+        kind = lt.kind
         if kind == "video":
             power_mode = "lumens"
         else:
@@ -221,9 +198,9 @@ class RigDoc:
             aim_at = [0.0, 0.0, reach]
         return {
             "name": str(t.get("name", f"light{index}")), "kind": kind,
-            "arm_length_m": _clean(math.hypot(pos[0], pos[1]), 4),
-            "arm_angle_deg": _clean(math.degrees(math.atan2(pos[1], pos[0])) % 360.0, 3) % 360.0,
-            "arm_forward_m": _clean(pos[2], 4),
+            "arm_length_m": _clean(arm_length, 4),
+            "arm_angle_deg": _clean(arm_angle, 3) % 360.0,
+            "arm_forward_m": _clean(arm_forward, 4),
             "aim_mode": "point" if "aim_at_m" in t else "angles",
             "yaw_deg": _clean(yaw, 3), "pitch_deg": _clean(pitch, 3),
             "aim_at_m": [_clean(x, 4) for x in aim_at],
@@ -231,7 +208,7 @@ class RigDoc:
             "beam_angle_deg": float(t.get("beam_angle_deg", 100.0)),
             "beam_edge_exponent": float(t.get("beam_edge_exponent", 2.0)),
             "beam_profile": str(t.get("beam_profile", "")),
-            "spectrum": str(t.get("spectrum", "daylight-led" if kind == "video" else "xenon-strobe")),
+            "spectrum": lt.spectrum_name,
             "power_mode": power_mode,
             "guide_number_m": float(t.get("guide_number_m", 24.0)),
             "flash_energy_J": float(t.get("flash_energy_J", 50.0)),
@@ -317,14 +294,14 @@ class RigDoc:
         data = copy.deepcopy(self.data)
         t = data["lights"][index]
         if "aim" not in t and "aim_at_m" not in t:  # angles: keep the direction the light had
-            pos = _local_position(t)
-            yaw, pitch = _yaw_pitch(_local_aim(t, pos))
+            yaw, pitch = direction_to_yaw_pitch(self.light_table(index).local_aim())
             t["yaw_deg"], t["pitch_deg"] = _clean(yaw, 3), _clean(pitch, 3)
         for key in ("position_m", "arm_length_m", "arm_angle_deg", "arm_forward_m"):
             t.pop(key, None)
-        t["arm_length_m"] = _clean(math.hypot(p[0], p[1]), 3)
-        t["arm_angle_deg"] = _clean(math.degrees(math.atan2(p[1], p[0])) % 360.0, 2) % 360.0
-        t["arm_forward_m"] = _clean(p[2], 3)
+        length, angle, forward = position_to_arm(p)
+        t["arm_length_m"] = _clean(length, 3)
+        t["arm_angle_deg"] = _clean(angle, 2) % 360.0
+        t["arm_forward_m"] = _clean(forward, 3)
         return self._validated(data)
 
     def set_aim_mode(self, index: int, mode: str) -> "RigDoc":
@@ -383,9 +360,9 @@ class RigDoc:
                                "arm_angle_deg": 90.0, "arm_forward_m": 0.0, "yaw_deg": 0.0, "pitch_deg": 0.0,
                                "beam_angle_deg": 100.0}
         if kind == "strobe":
-            new.update(spectrum="xenon-strobe", guide_number_m=24.0)
+            new.update(spectrum=DEFAULT_SPECTRUM[kind], guide_number_m=24.0)
         elif kind == "video":
-            new.update(spectrum="daylight-led", lumens=3000.0)
+            new.update(spectrum=DEFAULT_SPECTRUM[kind], lumens=3000.0)
         else:
             raise ConfigError(f"unknown light kind {kind!r}", field="kind", allowed="strobe, video")
         lights.append(new)
@@ -445,7 +422,7 @@ def dumps_toml(data: dict, *, header: str | None = None) -> str:
     """Write a rig table as TOML: top-level scalars, then ``[table]`` sections and ``[[array]]`` tables.
 
     Tables come in the order of the shipped rigs (``rig``, ``camera``, ``port``,
-    ``lights``), then any others.  ``tomllib.loads(dumps_toml(d)) == d`` for rig
+    ``lights``), then any others.  ``toml_from_text(dumps_toml(d)) == d`` for rig
     tables (numbers, strings, booleans, arrays of them, one level of tables).
     """
     lines: list[str] = []
