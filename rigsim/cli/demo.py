@@ -25,8 +25,8 @@ def demo(out: Path = typer.Option(Path("out/demo"), "--out", help="Output folder
 
     spec = load_study(DEMO_STUDY, quick=quick)
     run_study(spec, out, serial=serial)
-    plot_waters([preset(n) for n in ("pure-sea", "clear", "oceanic", "coastal", "coastal-regions",
-                                      "lakes-and-rivers", "jerlov-II")], out / "water_presets.png")
+    plot_waters([preset(n) for n in ("pure-sea", "clear", "coastal", "oceanic", "coastal-regions",
+                                      "lakes-and-rivers", "jerlov-3C")], out / "water_presets.png")
     report = write_report(out)
     typer.echo(f"water optics figure: {(out / 'water_presets.png').resolve()}")
     typer.echo(f"report: {report.resolve()}")

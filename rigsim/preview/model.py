@@ -451,6 +451,8 @@ def _daylight_irradiance(day, p, nrm, wl) -> np.ndarray:
     unoccluded: no shadows or light from other targets).
     """
     idx = day.band_index(wl)
+    if p.shape[0] == 0:  # no surface in view
+        return np.zeros((0, len(idx)))
     dy = (p[..., 1] - day.y0)[..., None]
     sun = np.asarray(day.sun_direction, float)
     cos_sun = np.clip(-(nrm @ sun), 0.0, None)

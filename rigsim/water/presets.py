@@ -1,9 +1,13 @@
-"""Named waters: the original write-up's six constituent presets and the ten Jerlov types.
+"""Named waters: the original write-up's six constituent presets, six code-derived ones, the ten Jerlov types.
 
-* ``pure-sea``, ``clear``, ``oceanic``, ``coastal``, ``coastal-regions``,
+* ``pure-sea``, ``clear``, ``coastal``, ``oceanic``, ``coastal-regions``,
   ``lakes-and-rivers`` — :class:`~rigsim.water.model.ConstituentWater` with the
-  concentrations in ``data/water/presets_original.csv`` (see its header for
-  provenance).
+  concentrations of the original write-up (Lian & Jobalia, "Underwater Rendering with
+  Realistic Water Properties", section "Example Images"), ``data/water/presets_original.csv``.
+* ``pure-water``, ``uwsim-clear-ocean``, ``uwsim-ocean``, ``coastal-petzold``,
+  ``turbid-coastal``, ``turbid-lake`` — constituent waters rebuilt from the original
+  *code*'s documented typical values (``data/water/presets_uwsim_code.csv``, see its header):
+  a wider range of turbidity than the write-up's six.
 * ``jerlov-I`` … ``jerlov-9C`` — :class:`~rigsim.water.model.TabulatedWater`
   with a(λ), b(λ) of Solonenko & Mobley (2015) (``data/water/
   jerlov_iop_solonenko_mobley_2015.csv``, 300–700 nm), phase function: pure water
@@ -36,11 +40,15 @@ from rigsim.water.model import ConstituentWater, Spectrum1D, TabulatedWater, Wat
 from rigsim.water.phase import MixturePhase, RayleighWater, petzold_average_particle
 from rigsim.water.scattering import scattering_pure_water
 
-__all__ = ["ORIGINAL_PRESETS", "JERLOV_TYPES", "WATER_PRESETS", "ALIASES", "preset", "preset_names",
-           "jerlov_water"]
+__all__ = ["ORIGINAL_PRESETS", "CODE_PRESETS", "JERLOV_TYPES", "WATER_PRESETS", "ALIASES", "preset",
+           "preset_names", "jerlov_water"]
 
-#: The six presets of the original write-up, in order.
-ORIGINAL_PRESETS = ("pure-sea", "clear", "oceanic", "coastal", "coastal-regions", "lakes-and-rivers")
+#: The six presets of the original write-up, in its order.
+ORIGINAL_PRESETS = ("pure-sea", "clear", "coastal", "oceanic", "coastal-regions", "lakes-and-rivers")
+#: Six constituent waters from the original code's documented values, clearest first.
+CODE_PRESETS = ("pure-water", "uwsim-clear-ocean", "uwsim-ocean", "coastal-petzold", "turbid-coastal", "turbid-lake")
+_TABLES = {**{n: "water/presets_original.csv" for n in ORIGINAL_PRESETS},
+           **{n: "water/presets_uwsim_code.csv" for n in CODE_PRESETS}}
 #: Jerlov types as named in the data (Roman oceanic, numbered coastal).
 JERLOV_TYPES = ("I", "IA", "IB", "II", "III", "1C", "3C", "5C", "7C", "9C")
 
@@ -54,12 +62,13 @@ ALIASES = {
 }
 
 
-def _original_rows() -> dict[str, dict]:
-    t = load_table("water/presets_original.csv")
+def _constituent_rows() -> dict[str, dict]:
     rows = {}
-    for i, name in enumerate(t["name"]):
-        rows[str(name)] = {k: float(t[k][i]) for k in ("chl_mg_per_m3", "cdom_a440_per_m",
-                                                        "small_particles_ppm", "large_particles_ppm")}
+    for table in sorted(set(_TABLES.values())):
+        t = load_table(table)
+        for i, name in enumerate(t["name"]):
+            rows[str(name)] = {k: float(t[k][i]) for k in ("chl_mg_per_m3", "cdom_a440_per_m",
+                                                            "small_particles_ppm", "large_particles_ppm")}
     return rows
 
 
@@ -128,12 +137,13 @@ def jerlov_water(water_type: str) -> TabulatedWater:
 
 def preset_names() -> list[str]:
     """All preset names (the public interface)."""
-    return list(ORIGINAL_PRESETS) + [f"jerlov-{t}" for t in JERLOV_TYPES]
+    return list(ORIGINAL_PRESETS) + list(CODE_PRESETS) + [f"jerlov-{t}" for t in JERLOV_TYPES]
 
 
 #: Name → short description, for listings.
 WATER_PRESETS = {
     **{n: "original write-up preset (constituents)" for n in ORIGINAL_PRESETS},
+    **{n: "from the original code's documented values (constituents)" for n in CODE_PRESETS},
     **{f"jerlov-{t}": f"Jerlov type {t} (Solonenko & Mobley 2015 IOPs)" for t in JERLOV_TYPES},
 }
 
@@ -146,10 +156,12 @@ def preset(name: str, **model_options) -> Water:
     --------
     >>> preset("coastal").small_particles_ppm
     0.1
+    >>> preset("coastal-petzold").large_particles_ppm
+    0.3
     """
     key = ALIASES.get(name.lower(), name) if name not in WATER_PRESETS else name
-    if key in ORIGINAL_PRESETS:
-        params = dict(_original_rows()[key])
+    if key in _TABLES:
+        params = dict(_constituent_rows()[key])
         params.update(model_options)
         return ConstituentWater(name=key, **params)
     if key.startswith("jerlov-") and key[7:] in JERLOV_TYPES:

@@ -50,11 +50,15 @@ def test_field_is_near_equilibrium_at_the_horizon(water_factory):
 
     With 5° × 30° bins and a few thousand photons the residual is ≲ 10 % looking
     towards or across the sun and ≲ 25 % looking away from it (where the radiance is
-    lowest and the 30° azimuth bins average over its minimum).
+    lowest and the 30° azimuth bins average over its minimum).  One field of 5000 photons
+    scatters by ±0.05–0.1 from seed to seed (measured over 8 seeds: standard deviations 0.07,
+    0.07, 0.10 in the three directions, means 0.02, 0.05, 0.00), so the bounds apply to the mean
+    residual of four independent fields.
     """
     w = water_factory(0.1, 0.4, 0.9)
-    f = angular_field(Daylight(depth_m=5.0, model="monte-carlo"), w, [500.0], photons=5000, seed=3)
-    res = equilibrium_residual(f, w, [[0, 0, 1], [1, 0, 0], [0, 0, -1]]).ravel()
+    res = np.mean([equilibrium_residual(angular_field(Daylight(depth_m=5.0, model="monte-carlo"), w, [500.0],
+                                                      photons=5000, seed=s), w,
+                                        [[0, 0, 1], [1, 0, 0], [0, 0, -1]]).ravel() for s in (3, 4, 5, 6)], axis=0)
     assert abs(res[0]) < 0.15 and abs(res[1]) < 0.15
     assert abs(res[2]) < 0.3
 

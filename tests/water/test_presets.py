@@ -6,15 +6,32 @@ import pytest
 from rigsim.data import load_table
 from rigsim.errors import ConfigError
 from rigsim.water import JERLOV_TYPES, ORIGINAL_PRESETS, preset, preset_names
+from rigsim.water.presets import CODE_PRESETS
+from rigsim.water.scattering import (
+    scattering_large_particles_Kopelevich1983,
+    scattering_pure_water,
+    scattering_small_particles_Kopelevich1983,
+)
 
-# (chl mg/m3, a_y(440) 1/m, small ppm, large ppm) — see data/water/presets_original.csv for sources
+# (chl mg/m3, a_y(440) 1/m, small ppm, large ppm): the write-up's table (Lian & Jobalia, "Underwater
+# Rendering with Realistic Water Properties", section "Example Images"), typed here from the write-up
+# itself, not read from the data file
 EXPECTED = {
-    "pure-sea": (0, 0, 0, 0),
-    "clear": (0.01, 0.01, 0.01, 0.01),
-    "oceanic": (0.2, 0.02, 0.01, 0.01),
-    "coastal": (1, 0.1, 0.1, 0.3),
-    "coastal-regions": (10, 0.5, 0.2, 0.4),
-    "lakes-and-rivers": (50, 1.0, 0.2, 0.4),
+    "pure-sea": (0, 0, 0.001, 0.001),
+    "clear": (0, 0, 0.05, 0.05),
+    "coastal": (0, 0, 0.1, 0.1),
+    "oceanic": (0.01, 0.01, 0.01, 0.01),
+    "coastal-regions": (5, 0.25, 0.01, 0.01),
+    "lakes-and-rivers": (15, 1, 0.01, 0.01),
+}
+# the six waters rigsim shipped under those names before, from the original code's comments
+EXPECTED_CODE = {
+    "pure-water": (0, 0, 0, 0),
+    "uwsim-clear-ocean": (0.01, 0.01, 0.01, 0.01),
+    "uwsim-ocean": (0.2, 0.02, 0.01, 0.01),
+    "coastal-petzold": (1, 0.1, 0.1, 0.3),
+    "turbid-coastal": (10, 0.5, 0.2, 0.4),
+    "turbid-lake": (50, 1.0, 0.2, 0.4),
 }
 
 
@@ -27,16 +44,31 @@ def test_public_names():
         preset(n)
 
 
-@pytest.mark.parametrize("name", ORIGINAL_PRESETS)
-def test_original_presets_parameters(name):
+@pytest.mark.parametrize("name", ORIGINAL_PRESETS + CODE_PRESETS)
+def test_constituent_presets_parameters(name):
     w = preset(name)
     got = (w.chl_mg_per_m3, w.cdom_a440_per_m, w.small_particles_ppm, w.large_particles_ppm)
-    assert got == pytest.approx(EXPECTED[name])
+    assert got == pytest.approx({**EXPECTED, **EXPECTED_CODE}[name])
     assert w.detritus_exponent == 0.702 and w.pure_water == "smith-baker-1981"
 
 
-def test_presets_are_ordered_by_turbidity():
-    c = [float(preset(n).c_per_m(550.0)) for n in ORIGINAL_PRESETS]
+def test_write_up_coastal_scatters_as_kopelevich_says():
+    """b(550) of the write-up's coastal water: b_w + b_s*·0.1 + b_l*·0.1 with rigsim's own
+    integration of Kopelevich's specific VSFs (1.300 and 0.3156 1/(m ppm), within 3 % of the
+    published 1.34 and 0.312), i.e. ≈ 0.0017 + 1.34·0.1 + 0.312·0.1 = 0.167 1/m."""
+    b = float(preset("coastal").b_per_m(550.0))
+    b_s = float(scattering_small_particles_Kopelevich1983(550.0, 1.0))
+    b_l = float(scattering_large_particles_Kopelevich1983(550.0, 1.0))
+    assert b == pytest.approx(float(scattering_pure_water(550.0)) + 0.1 * b_s + 0.1 * b_l, rel=1e-12)
+    assert b == pytest.approx(0.0017 + 1.34 * 0.1 + 0.312 * 0.1, rel=0.03)
+    # the write-up's strongly absorbing waters scatter weakly: 0.01 ppm of each particle class
+    for name in ("coastal-regions", "lakes-and-rivers"):
+        assert float(preset(name).b_per_m(550.0)) == pytest.approx(0.0179, abs=5e-4)
+        assert float(preset(name).a_per_m(440.0)) > 10 * float(preset(name).b_per_m(440.0))
+
+
+def test_code_presets_are_ordered_by_turbidity():
+    c = [float(preset(n).c_per_m(550.0)) for n in CODE_PRESETS]
     assert c == sorted(c)
 
 

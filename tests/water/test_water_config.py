@@ -23,7 +23,7 @@ def write(tmp_path, text, name="w.toml"):
 def test_constituents_with_original_aliases(tmp_path):
     p = write(tmp_path, "[water]\nchlorophyllConc = 1.0\ndomConc = 0.1\nsmallPartConc = 0.1\nlargePartConc = 0.3\n")
     w = load_water(p)
-    ref = preset("coastal")
+    ref = preset("coastal-petzold")  # the same concentrations (the original code's names for them)
     np.testing.assert_allclose(w.c_per_m([450.0, 550.0]), ref.c_per_m([450.0, 550.0]))
 
 
@@ -133,7 +133,7 @@ def test_cli_show_json_consistent_with_published_kopelevich():
     assert len({len(v) for v in d.values()}) == 1 and len(d["wavelength_nm"]) == 31
     wl = np.array(d["wavelength_nm"])
     x = 550.0 / wl
-    published = 0.0017 * x**4.3 + 1.34 * 0.1 * x**1.7 + 0.312 * 0.3 * x**0.3  # coastal: 0.1 / 0.3 ppm
+    published = 0.0017 * x**4.3 + 1.34 * 0.1 * x**1.7 + 0.312 * 0.1 * x**0.3  # the write-up's coastal: 0.1 / 0.1 ppm
     np.testing.assert_allclose(d["b_per_m"], published, rtol=0.04)
     np.testing.assert_allclose(np.array(d["a_per_m"]) + d["b_per_m"], d["c_per_m"], rtol=1e-12)
 
