@@ -70,10 +70,7 @@ def render_cmd(
         raise ConfigError(f"unknown integrator {integrator!r}", field="--integrator", allowed="rigsim, volpath")
     daylight = None
     if depth is not None:
-        if engine == "preview":
-            raise ConfigError("daylight is rendered by the mitsuba engine only", field="--depth",
-                              allowed="--engine mitsuba with --depth")
-        from rigsim.render.daylight import daylight_from_options
+        from rigsim.scene.daylight_field import daylight_from_options
 
         daylight = daylight_from_options(depth, sun_zenith_deg=sun_zenith, model=daylight_model, waves=waves)
     scene = build_scene(load_rig(rig), load_water(water), target, distance, size_m=target_size, daylight=daylight)

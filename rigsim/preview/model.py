@@ -249,7 +249,8 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
     hit = oid_s > 0
     ts = np.where(hit, t_s, 0.0)
     p_s = o_s + ts[..., None] * d_s
-    nrm = np.where(hit[..., None], surf.normal[np.maximum(oid_s - 1, 0)], 0.0)
+    normals = surf.normal if len(surf) else np.zeros((1, 3))  # a scene of open water only
+    nrm = np.where(hit[..., None], normals[np.maximum(oid_s - 1, 0)], 0.0)
     nrm = np.where((np.sum(nrm * d_s, axis=-1) > 0)[..., None], -nrm, nrm)  # two-sided: face the camera
     # work on the samples that hit a surface only
     sample_shape = hit.shape

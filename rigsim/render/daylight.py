@@ -32,53 +32,17 @@ import dataclasses
 
 import numpy as np
 
-from rigsim.errors import ConfigError
 from rigsim.render.variant import mitsuba
 from rigsim.scene.daylight_field import SceneDaylight, scene_daylight
-from rigsim.scene.types import DAYLIGHT_MODELS, WAVE_KINDS, Daylight, Scene
+from rigsim.scene.types import Scene
 from rigsim.spectrum import MITSUBA_WAVELENGTH_RANGE_NM
 
-__all__ = ["AmbientTables", "ambient_tables", "from_scene_daylight", "daylight_from_options", "DAYLIGHT_MODELS", "WAVE_KINDS"]
+__all__ = ["AmbientTables", "ambient_tables", "from_scene_daylight"]
 
 mi, dr = mitsuba()
 
-#: Command-line option of each :class:`Daylight` field, for messages.
-_OPTION_OF_FIELD = {"depth_m": "depth", "sun_zenith_deg": "sun-zenith", "model": "daylight-model"}
 _LO, _HI = MITSUBA_WAVELENGTH_RANGE_NM
 _N_WL = int(round(_HI - _LO)) + 1
-
-
-def daylight_from_options(depth_m: float | None, *, sun_zenith_deg: float = 30.0, sun_azimuth_deg: float = 0.0,
-                          model: str = "kd", sky: str = "cie", photons: int = 20_000, waves: str = "flat",
-                          wind_speed_m_s: float = 5.0, wave_amplitude_m: float = 0.05,
-                          wave_length_m: float = 1.0) -> Daylight | None:
-    """A :class:`Daylight` from command-line values (None if ``depth_m`` is None).
-
-    Parameters
-    ----------
-    depth_m
-        Camera depth (m, > 0), or None for no daylight.
-    sun_zenith_deg, sun_azimuth_deg
-        Sun position (deg; zenith 0 <= z < 90).
-    model, sky, photons, waves, wind_speed_m_s, wave_amplitude_m, wave_length_m
-        As :class:`Daylight` (which checks them all).
-
-    Raises
-    ------
-    ConfigError
-        What :class:`Daylight` refuses, naming the command-line option (``depth``,
-        ``sun-zenith``, ``daylight-model``, ``waves``, ``photons`` …).
-    """
-    if depth_m is None:
-        return None
-    try:
-        return Daylight(depth_m=depth_m, sun_zenith_deg=sun_zenith_deg, sun_azimuth_deg=sun_azimuth_deg, model=model,
-                        sky=sky, photons=photons, waves=waves, wind_speed_m_s=wind_speed_m_s,
-                        wave_amplitude_m=wave_amplitude_m, wave_length_m=wave_length_m)
-    except ConfigError as exc:
-        key = exc.field.split(".", 1)[-1] if exc.field else ""
-        raise ConfigError(exc.message, field=_OPTION_OF_FIELD.get(key, key.replace("_", "-")) or None,
-                          allowed=exc.allowed) from None
 
 
 @dataclasses.dataclass(eq=False)
@@ -158,8 +122,9 @@ class AmbientTables:
         return val
 
 
-def ambient_tables(scene: Scene, band_lo_nm: float, band_hi_nm: float, *, seed: int = 0) -> AmbientTables:
-    """The daylight field of ``scene`` (:func:`rigsim.scene.daylight_field.scene_daylight`) as Dr.Jit tables."""
+def ambient_tables(scene: Scene, band_lo_nm: float, band_hi_nm: float, *, seed: int | None = None) -> AmbientTables:
+    """The daylight field of ``scene`` (:func:`rigsim.scene.daylight_field.scene_daylight`; ``seed``
+    None: the scene's :attr:`~rigsim.scene.types.Daylight.field_seed`) as Dr.Jit tables."""
     return from_scene_daylight(scene_daylight(scene, band_lo_nm, band_hi_nm, seed=seed))
 
 

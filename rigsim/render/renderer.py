@@ -331,7 +331,7 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
         if integrator != "rigsim":
             raise ConfigError("daylight is rendered by the rigsim integrator only", field="integrator",
                               allowed="rigsim")
-        ambient = ambient_tables(scene, req.band_lo_nm, req.band_hi_nm, seed=seed)
+        ambient = ambient_tables(scene, req.band_lo_nm, req.band_hi_nm)  # the scene's own field
 
     groups = {"continuous": [l for l in scene.lights if l.kind == "continuous"],
               "strobe": [l for l in scene.lights if l.kind == "strobe"]}

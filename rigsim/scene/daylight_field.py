@@ -51,7 +51,7 @@ from rigsim.errors import ConfigError
 from rigsim.scene.types import Daylight, Scene
 from rigsim.spectrum import MITSUBA_WAVELENGTH_RANGE_NM
 
-__all__ = ["SceneDaylight", "Caustic", "scene_daylight", "path_radiance", "height_factor",
+__all__ = ["SceneDaylight", "Caustic", "scene_daylight", "daylight_from_options", "path_radiance", "height_factor",
            "FIELD_STEP_NM", "CAUSTIC_EXTENT_M", "CAUSTIC_RESOLUTION", "K_DIFFUSE_CLIP"]
 
 #: Largest spacing of the wavelengths at which the Monte Carlo field is computed (nm).
@@ -59,6 +59,8 @@ FIELD_STEP_NM = 20.0
 #: Side (m) and resolution (cells) of each caustic texture (periodic beyond).
 CAUSTIC_EXTENT_M = 4.0
 CAUSTIC_RESOLUTION = 128
+#: Command-line option of each :class:`Daylight` field, for messages.
+_OPTION_OF_FIELD = {"depth_m": "depth", "sun_zenith_deg": "sun-zenith", "model": "daylight-model"}
 #: ``k_diffuse`` is clipped to ``[lo·c, hi·c]`` (see the module docstring).
 K_DIFFUSE_CLIP = (-0.5, 0.9)
 _LO, _HI = MITSUBA_WAVELENGTH_RANGE_NM
@@ -90,6 +92,39 @@ def path_radiance(l_look, c, k, v_y, dy_origin, t, exp):
 def height_factor(k, dy, exp):
     """``e^{K (y − y₀)}``: how a field quantity changes ``dy = y − y₀`` metres above the field's height."""
     return exp(k * dy)
+
+
+def daylight_from_options(depth_m: float | None, *, sun_zenith_deg: float = 30.0, sun_azimuth_deg: float = 0.0,
+                          model: str = "kd", sky: str = "cie", photons: int = 20_000, waves: str = "flat",
+                          wind_speed_m_s: float = 5.0, wave_amplitude_m: float = 0.05,
+                          wave_length_m: float = 1.0) -> Daylight | None:
+    """A :class:`Daylight` from command-line values (None if ``depth_m`` is None).
+
+    Parameters
+    ----------
+    depth_m
+        Camera depth (m, > 0), or None for no daylight.
+    sun_zenith_deg, sun_azimuth_deg
+        Sun position (deg; zenith 0 <= z < 90).
+    model, sky, photons, waves, wind_speed_m_s, wave_amplitude_m, wave_length_m
+        As :class:`Daylight` (which checks them all).
+
+    Raises
+    ------
+    ConfigError
+        What :class:`Daylight` refuses, naming the command-line option (``depth``,
+        ``sun-zenith``, ``daylight-model``, ``waves``, ``photons`` …).
+    """
+    if depth_m is None:
+        return None
+    try:
+        return Daylight(depth_m=depth_m, sun_zenith_deg=sun_zenith_deg, sun_azimuth_deg=sun_azimuth_deg, model=model,
+                        sky=sky, photons=photons, waves=waves, wind_speed_m_s=wind_speed_m_s,
+                        wave_amplitude_m=wave_amplitude_m, wave_length_m=wave_length_m)
+    except ConfigError as exc:
+        key = exc.field.split(".", 1)[-1] if exc.field else ""
+        raise ConfigError(exc.message, field=_OPTION_OF_FIELD.get(key, key.replace("_", "-")) or None,
+                          allowed=exc.allowed) from None
 
 
 @dataclass(frozen=True, eq=False)
@@ -206,14 +241,17 @@ class SceneDaylight:
         return out
 
 
-def _key(scene: Scene, lo: float, hi: float, seed: int) -> tuple:
-    dl = scene.daylight
-    return (dataclasses.astuple(dl), lo, hi, int(seed), float(scene.camera.position_m[1]),
-            tuple(float(x) for x in scene.camera.frame()[2]),
-            tuple((t.kind, t.distance_m) for t in scene.targets))
+def _field_key(scene: Scene, lo: float, hi: float, seed: int) -> tuple:
+    return (dataclasses.astuple(scene.daylight), lo, hi, int(seed), float(scene.camera.position_m[1]))
 
 
-#: water → {key: SceneDaylight}, at most _PER_WATER entries each, kept while the water lives
+def _caustic_key(scene: Scene) -> tuple:
+    return (tuple(float(x) for x in scene.camera.frame()[2]), tuple((t.kind, t.distance_m) for t in scene.targets))
+
+
+#: water → {key: SceneDaylight}, at most _PER_WATER entries each, kept while the water lives.  The
+#: field does not depend on the targets (only the caustic patterns, computed at their heights, do):
+#: a sweep over distances reuses one field.
 _CACHE: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 _PER_WATER = 6
 
@@ -238,7 +276,7 @@ def _caustic_waves(daylight: Daylight):
 
 
 def scene_daylight(scene: Scene, band_lo_nm: float = _LO, band_hi_nm: float = _HI, *,
-                   seed: int = 0) -> SceneDaylight:
+                   seed: int | None = None) -> SceneDaylight:
     """The daylight field of ``scene`` for bands spanning ``band_lo_nm … band_hi_nm`` (see module docstring).
 
     Parameters
@@ -248,8 +286,9 @@ def scene_daylight(scene: Scene, band_lo_nm: float = _LO, band_hi_nm: float = _H
     band_lo_nm, band_hi_nm
         The rendered wavelength range (nm); the tables hold their end values beyond it.
     seed
-        Seed of the Monte Carlo field (``model="monte-carlo"``); the field is an input of the
-        render, so both engines use the same seed (0) unless told otherwise.
+        Seed of the Monte Carlo field (``model="monte-carlo"``) and of the caustics; None: the
+        scene's own, :attr:`Daylight.field_seed` (an input of the scene, so that every render and
+        the fast engine see the same field).
 
     Returns
     -------
@@ -265,10 +304,17 @@ def scene_daylight(scene: Scene, band_lo_nm: float = _LO, band_hi_nm: float = _H
         raise ConfigError("the scene has no daylight", field="daylight")
     if scene.water is None:
         raise ConfigError("daylight at depth needs water (the scene has none)", field="daylight")
-    key = _key(scene, float(band_lo_nm), float(band_hi_nm), seed)
+    seed = scene.daylight.field_seed if seed is None else int(seed)
+    fkey = _field_key(scene, float(band_lo_nm), float(band_hi_nm), seed)
     per_water = _CACHE.setdefault(scene.water, {})
-    if key in per_water:
-        return per_water[key]
+    ckey = _caustic_key(scene) if scene.daylight.waves != "flat" else None
+    hit = per_water.get(fkey)
+    if hit is not None:
+        if ckey is None or hit.caustics_key == ckey:
+            return hit.daylight
+        out = dataclasses.replace(hit.daylight, caustics=_caustics(scene, seed))
+        per_water[fkey] = _Cached(out, ckey)
+        return out
     dl, water = scene.daylight, scene.water
     wr = water.wavelength_range_nm
     nodes = np.linspace(_LO, _HI, _N_WL)
@@ -304,23 +350,7 @@ def scene_daylight(scene: Scene, band_lo_nm: float = _LO, band_hi_nm: float = _H
     k_diff = np.clip(k_diff, K_DIFFUSE_CLIP[0] * c, K_DIFFUSE_CLIP[1] * c)
     y0 = float(scene.camera.position_m[1])
     y_surf = y0 + float(dl.depth_m)
-    caustics = []
-    waves = _caustic_waves(dl)
-    if waves is not None:
-        from rigsim.daylight.waves import caustic_pattern
-
-        fwd = scene.camera.frame()[2]
-        levels = {round(y0, 3)}
-        for t in scene.targets:  # one pattern at each target's centre height (focus changes with depth)
-            levels.add(round(y0 - t.distance_m if t.kind == "bottom" else y0 + t.distance_m * float(fwd[1]), 3))
-        for y_lev in sorted(levels):
-            depth = y_surf - y_lev
-            if depth <= 0:
-                continue
-            pat = caustic_pattern(waves, sun_zenith_deg=dl.sun_zenith_deg, sun_azimuth_deg=dl.sun_azimuth_deg,
-                                  depth_m=depth, extent_m=CAUSTIC_EXTENT_M, resolution=CAUSTIC_RESOLUTION,
-                                  rays_per_cell=16, seed=seed)
-            caustics.append(Caustic(float(y_lev), np.asarray(pat, float), CAUSTIC_EXTENT_M))
+    caustics = _caustics(scene, seed)
     meta = {"model": dl.model, "depth_m": float(dl.depth_m), "sun_zenith_deg": float(dl.sun_zenith_deg),
             "sun_azimuth_deg": float(dl.sun_azimuth_deg), "sky": dl.sky, "seed": int(seed),
             "photons": int(dl.photons) if dl.model == "monte-carlo" else None,
@@ -329,8 +359,40 @@ def scene_daylight(scene: Scene, band_lo_nm: float = _LO, band_hi_nm: float = _H
             "transport": "field at depth + Duntley path radiance/attenuation (rigsim.scene.daylight_field)"}
     out = SceneDaylight(fld, nodes, diffuse, np.asarray(fld.theta_edges_rad), np.asarray(fld.phi_edges_rad),
                         beam, c, k_diff, k_beam, tuple(float(x) for x in sun.direction),
-                        float(np.radians(dl.sun_azimuth_deg)), y0, y_surf, tuple(caustics), meta)
+                        float(np.radians(dl.sun_azimuth_deg)), y0, y_surf, caustics, meta)
     if len(per_water) >= _PER_WATER:
         per_water.pop(next(iter(per_water)))
-    per_water[key] = out
+    per_water[fkey] = _Cached(out, ckey)
     return out
+
+
+@dataclass(frozen=True, eq=False)
+class _Cached:
+    daylight: SceneDaylight
+    caustics_key: tuple | None
+
+
+def _caustics(scene: Scene, seed: int) -> tuple[Caustic, ...]:
+    """The sun beam's caustic patterns at the camera's and each target's height (none for a flat sea)."""
+    dl = scene.daylight
+    waves = _caustic_waves(dl)
+    if waves is None:
+        return ()
+    from rigsim.daylight.waves import caustic_pattern
+
+    y0 = float(scene.camera.position_m[1])
+    y_surf = y0 + float(dl.depth_m)
+    fwd = scene.camera.frame()[2]
+    levels = {round(y0, 3)}
+    for t in scene.targets:  # one pattern at each target's centre height (focus changes with depth)
+        levels.add(round(y0 - t.distance_m if t.kind == "bottom" else y0 + t.distance_m * float(fwd[1]), 3))
+    out = []
+    for y_lev in sorted(levels):
+        depth = y_surf - y_lev
+        if depth <= 0:
+            continue
+        pat = caustic_pattern(waves, sun_zenith_deg=dl.sun_zenith_deg, sun_azimuth_deg=dl.sun_azimuth_deg,
+                              depth_m=depth, extent_m=CAUSTIC_EXTENT_M, resolution=CAUSTIC_RESOLUTION,
+                              rays_per_cell=16, seed=seed)
+        out.append(Caustic(float(y_lev), np.asarray(pat, float), CAUSTIC_EXTENT_M))
+    return tuple(out)

@@ -380,6 +380,10 @@ class Daylight:
         ``wave_direction_deg``).
     wind_speed_m_s, wave_amplitude_m, wave_length_m, wave_direction_deg
         Wave parameters (m/s > 0, m >= 0, m > 0, deg from +z towards +x).
+    field_seed
+        Seed of the Monte Carlo daylight field and of the caustic pattern (>= 0).  The field is
+        an input of the scene, not part of a render's noise: every render (whatever its own
+        seed) and the fast engine light the scene with the same field.
     """
 
     depth_m: _PositiveM
@@ -395,6 +399,7 @@ class Daylight:
     wave_amplitude_m: _NonNegativeM = 0.05
     wave_length_m: _PositiveM = 1.0
     wave_direction_deg: _Degrees = 0.0
+    field_seed: Annotated[Int, Field(ge=0)] = 0
 
     @model_validator(mode="after")
     def _check(self) -> "Daylight":

@@ -50,7 +50,7 @@ def compute_case(spec: StudySpec, case: Case) -> dict:
         size_m = case.target_fill * 2 * case.distance_m * np.tan(np.radians(fov_water_deg(rig.camera)) / 2)
     daylight = None
     if case.depth_m is not None:  # ambient daylight at depth: sun at 30°, Kd field (rigsim.render.daylight)
-        from rigsim.render.daylight import daylight_from_options
+        from rigsim.scene.daylight_field import daylight_from_options
 
         daylight = daylight_from_options(case.depth_m, sun_zenith_deg=30.0, model="kd")
     scene = build_scene(rig, water, case.target, case.distance_m, size_m=size_m, daylight=daylight)
@@ -98,5 +98,18 @@ def compute_case(spec: StudySpec, case: Case) -> dict:
         row.update(scene_metrics(si, target_kind, cap=cap, sensor=sensor, exposure=ex, masks=masks)[0])
         rows.append(row)
         files[f"{skey}.png"] = _png_bytes(cap.srgb)
+        if cs.save_raw:
+            files[f"{skey}.dng"] = _dng_bytes(cap)
     return {"rows": rows, "files": files, "meta": {"render_wall_time_s": si.meta.get("wall_time_s"),
                                                     "seed": seed}}
+
+
+def _dng_bytes(cap) -> bytes:
+    """The raw mosaic of a capture as DNG bytes (:func:`rigsim.sensor.raw_io.save_dng`)."""
+    import tempfile
+    from pathlib import Path
+
+    from rigsim.sensor.raw_io import save_dng
+
+    with tempfile.TemporaryDirectory() as d:
+        return save_dng(cap, Path(d) / "raw.dng").read_bytes()

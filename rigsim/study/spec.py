@@ -56,7 +56,7 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from pydantic import BeforeValidator, Field, field_validator, model_validator
 
-from rigsim.config.schema import FileModel, Int, Real, Unit, WavelengthGrid, invalid, names_list, read_toml, validate
+from rigsim.config.schema import Bool, FileModel, Int, Real, Unit, WavelengthGrid, invalid, names_list, read_toml, validate
 from rigsim.errors import ConfigError, RigsimError, unknown_name_error
 from rigsim.spectrum import parse_wavelength_range
 
@@ -93,6 +93,7 @@ class CaptureSettings:
     demosaic: str = "Malvar2004"
     target_percentile: float = 99.0
     target_level: float = 0.8
+    save_raw: bool = False
 
 
 @dataclass(frozen=True)
@@ -255,6 +256,7 @@ class CaptureTable(FileModel):
     demosaic: str = "Malvar2004"
     target_percentile: Annotated[Real, Field(ge=1, le=100)] = 99.0
     target_level: Annotated[Real, Field(gt=0, le=1)] = 0.8
+    save_raw: Bool = False  # also write each capture's raw mosaic as a DNG (cases/<id>/<sensor>.dng)
 
     @field_validator("white_balance")
     @classmethod
@@ -280,7 +282,8 @@ class CaptureTable(FileModel):
         """The :class:`CaptureSettings`."""
         return CaptureSettings(exposure=self.exposure, iso=self.iso, shutter_s=self.shutter_s,
                                white_balance=self.white_balance, demosaic=self.demosaic,
-                               target_percentile=self.target_percentile, target_level=self.target_level)
+                               target_percentile=self.target_percentile, target_level=self.target_level,
+                               save_raw=self.save_raw)
 
 
 class MetricsTable(FileModel):
