@@ -59,11 +59,12 @@ def _plate_expected(scene, y, *, beam=True):
 
 
 def test_ambient_only_rig_renders_at_depth_coastal_is_greener_and_darker():
+    """The write-up's coastal-region water (chlorophyll 5 mg/m³, CDOM 0.25 /m) absorbs the blue."""
     from rigsim.config.rig import load_rig
 
     rig = load_rig("rigs/ambient-only.toml")
     out = {}
-    for w in ("clear", "coastal"):
+    for w in ("clear", "coastal-regions"):
         sc = Scene(rig, preset(w), (_plate(1.5, size=3.0),), Daylight(depth_m=5.0, sun_zenith_deg=30.0))
         sc = dataclasses.replace(sc, rig=dataclasses.replace(rig, camera=dataclasses.replace(
             rig.camera, forward=(0.0, -1.0, 0.0), up=(0.0, 0.0, 1.0))))
@@ -72,8 +73,8 @@ def test_ambient_only_rig_renders_at_depth_coastal_is_greener_and_darker():
         assert im.meta["daylight_rendered"] and im.meta["daylight"]["field"]["model"] == "kd"
         out[w] = im.radiance[2:6, 4:8].mean(axis=(0, 1))
     # the coastal plate is darker and its light greener (relative to blue) than in clear water
-    assert out["coastal"].sum() < out["clear"].sum()
-    assert out["coastal"][1] / out["coastal"][0] > out["clear"][1] / out["clear"][0]
+    assert out["coastal-regions"].sum() < out["clear"].sum()
+    assert out["coastal-regions"][1] / out["coastal-regions"][0] > out["clear"][1] / out["clear"][0]
 
 
 @pytest.mark.parametrize("model", ["kd", "monte-carlo"])
