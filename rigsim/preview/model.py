@@ -147,7 +147,8 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
                    layers: Sequence[str] = ("range_m", "clear", "object_id"), split: bool = False,
                    shadows: bool = False, forward_scatter: bool = True, forward_cutoff_deg: float = 90.0,
                    sub_bands: int = 3, pixel_samples: int = 1, backscatter_grid: int | None = 32,
-                   backscatter_nodes: int = 64, spp: int | None = None, seed: int | None = None,
+                   backscatter_nodes: int = 64, multiple: bool = False, photons: int | None = None,
+                   ms_grid: int | None = None, spp: int | None = None, seed: int | None = None,
                    max_depth: int | None = None, progress: ProgressCallback | None = None) -> SpectralImage:
     """Fast semi-analytic image of a :class:`~rigsim.scene.types.Scene` (see module docstring).
 
@@ -316,6 +317,17 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
                 amp = np.exp(-water.c * rr) * np.expm1(water.b * water.F * rr)
                 scattered += geo[..., None] * fb * amp * (rho_c[oid_s] * I_c)
             tables.append(lt)
+        ms = None
+        if multiple and has_water and lights and water.b.max() > 0:
+            from rigsim.preview.multiple import DEFAULT_GRID, DEFAULT_PHOTONS, trace_multiple
+
+            kap = water.c - water.b * water.F if forward else water.c
+            ms = trace_multiple(scene, surf, lights, wl, c=water.c, b=water.b, kappa_cam=kap, tables=water.components,
+                                weights=water.components.weights_at(wl), width=width, height=height,
+                                cutoff_rad=cutoff, photons=photons or DEFAULT_PHOTONS, grid=ms_grid or DEFAULT_GRID,
+                                seed=0 if seed is None else int(seed))
+            if len(hidx):  # targets lit by the multiply scattered light
+                scattered += rho_c[oid_s] / np.pi * ms.irradiance_at(surf, oid_s, p_s)
         if has_day:
             # the target lit by the scene's daylight field (as the renderer: sun beam and diffuse
             # field; no forward-scattered halo of it, the renderer's daylight transport has none)
@@ -345,6 +357,9 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
         if tables:
             back += _backscatter(scene, surf, tables, water, forward, cam, width, height, t_c, cols, rows,
                                  world_r, backscatter_grid, backscatter_nodes, shadows)
+        if ms is not None:
+            C_, R_ = np.meshgrid(cols, rows)
+            back += ms.veil_at(C_, R_, range_m.astype(float))
         if has_day:
             back += _daylight_path_radiance(day, o_c, d_c, t_c, wl)
         tick(0.5 + 0.3 * gi, f"{gname}: backscatter")
