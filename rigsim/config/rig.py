@@ -3,7 +3,7 @@
 The format is documented in ``rigs/README.md``.  Parsing happens once, here;
 everything downstream receives the ``Rig``.  The file's schema is a set of
 pydantic models (:class:`RigFile` with :class:`RigTable`, :class:`CameraTable`,
-:class:`PortTable` and :class:`LightTable`, all :class:`~rigsim.config.schema.FileModel`):
+:class:`PortTable` and :class:`LightTable`, all :class:`~rigsim.schema.FileModel`):
 they hold the file's own conventions (arm length and angle, yaw and pitch, aim
 points, spectrum names, makers' power ratings) and the file's limits, and convert to
 the scene types, which check themselves.  Errors are one line naming the file, the
@@ -40,7 +40,7 @@ from typing import Annotated, Literal
 import numpy as np
 from pydantic import BeforeValidator, Field, model_validator
 
-from rigsim.config.schema import (
+from rigsim.schema import (
     Direction,
     FileModel,
     Real,
@@ -396,7 +396,7 @@ def load_rig(path: str | Path) -> Rig:
 
 
 def parse_rig(data: dict, *, source: str | Path = "<rig>", base_dir: str | Path | None = None) -> Rig:
-    """Validate a parsed rig table (as from :func:`~rigsim.config.schema.read_toml`) into a :class:`Rig`.
+    """Validate a parsed rig table (as from :func:`~rigsim.schema.read_toml`) into a :class:`Rig`.
 
     Parameters
     ----------

@@ -24,7 +24,7 @@ or by explicit inherent optical properties::
 Relative CSV paths resolve against the TOML file's folder.
 
 The schema is :class:`WaterFile` / :class:`WaterTable` (pydantic, read by
-:func:`rigsim.config.schema.read_toml` like every config file); preset names and
+:func:`rigsim.schema.read_toml` like every config file); preset names and
 command-line overrides go through the same table model, so ``--chl -2`` and
 ``chl_mg_per_m3 = -2`` give the same message.  The water classes themselves
 (:class:`~rigsim.water.model.ConstituentWater`, :class:`~rigsim.water.model.TabulatedWater`)
@@ -42,7 +42,7 @@ from typing import Annotated, Any, ClassVar
 import numpy as np
 from pydantic import BeforeValidator, Field, model_validator
 
-from rigsim.config.schema import Bool, FileModel, Real, invalid, read_toml, validate
+from rigsim.schema import Bool, FileModel, Real, invalid, read_toml, validate
 from rigsim.data import read_csv_table
 from rigsim.errors import ConfigError, RigsimError
 from rigsim.water.model import ConstituentWater, Spectrum1D, TabulatedWater, Water

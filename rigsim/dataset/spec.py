@@ -48,7 +48,7 @@ from typing import Annotated, Any, Literal
 
 from pydantic import BeforeValidator, Field, field_validator
 
-from rigsim.config.schema import Bool, FileModel, Int, Real, WavelengthGrid, invalid, load_file, names_list
+from rigsim.schema import Bool, FileModel, Int, Real, WavelengthGrid, invalid, load_file, names_list
 from rigsim.errors import ConfigError, unknown_name_error
 from rigsim.spectrum import parse_wavelength_range
 

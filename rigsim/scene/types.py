@@ -2,7 +2,7 @@
 
 Each type validates itself when it is built — from a rig file or from Python —
 with the constraints written on its fields (pydantic dataclasses made by
-:func:`rigsim.config.schema.frozen_type`).  An invalid value raises
+:func:`rigsim.schema.frozen_type`).  An invalid value raises
 :class:`~rigsim.errors.ConfigError` naming the class, the field and the allowed
 range, e.g. ``BeamPattern.beam_angle_deg: out of range: 400 (allowed: > 0 and <
 360 (deg, full angle at half intensity))``; code downstream relies on these
@@ -26,7 +26,7 @@ from typing import Annotated, Literal, get_args
 import numpy as np
 from pydantic import Field, model_validator
 
-from rigsim.config.schema import Direction, Int, Real, Unit, Vec3, float_table, frozen_type, invalid
+from rigsim.schema import Direction, Int, Real, Unit, Vec3, float_table, frozen_type, invalid
 from rigsim.water.model import Water
 
 __all__ = ["Port", "Camera", "BeamPattern", "Light", "Rig", "Target", "Daylight", "Scene", "unit",

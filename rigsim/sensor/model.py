@@ -51,7 +51,7 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from pydantic import BeforeValidator, Field, model_validator
 
-from rigsim.config.schema import FileModel, Int, Real, invalid, load_file
+from rigsim.schema import FileModel, Int, Real, invalid, load_file
 from rigsim.data import DATA_DIR, read_csv_table
 from rigsim.errors import ConfigError, DataError, unknown_name_error
 from rigsim.spectrum import interp_table

@@ -56,7 +56,7 @@ from typing import Annotated, Any, Literal
 import numpy as np
 from pydantic import BeforeValidator, Field, field_validator, model_validator
 
-from rigsim.config.schema import Bool, FileModel, Int, Real, Unit, WavelengthGrid, invalid, names_list, read_toml, validate
+from rigsim.schema import Bool, FileModel, Int, Real, Unit, WavelengthGrid, invalid, names_list, read_toml, validate
 from rigsim.errors import ConfigError, RigsimError, unknown_name_error
 from rigsim.spectrum import parse_wavelength_range
 

@@ -2,7 +2,7 @@
 
 The designer edits a rig the way a diver thinks about it — arm length and angle,
 yaw and pitch, beam angle, power — while the document keeps the rig file's own
-table (as read by :func:`rigsim.config.schema.read_toml`).  Each edit rewrites the
+table (as read by :func:`rigsim.schema.read_toml`).  Each edit rewrites the
 light's keys in one of the forms ``rigs/README.md`` allows (the *arm convention* for
 positions, ``yaw_deg`` / ``pitch_deg`` or ``aim_at_m`` for aims), is validated by
 :func:`rigsim.config.rig.parse_rig` (so the app and the CLI accept exactly the same
@@ -50,7 +50,7 @@ from rigsim.config.rig import (
     parse_rig,
     position_to_arm,
 )
-from rigsim.config.schema import read_toml, toml_from_text, validate
+from rigsim.schema import read_toml, toml_from_text, validate
 from rigsim.errors import ConfigError
 from rigsim.scene.types import Rig
 
@@ -116,7 +116,7 @@ class RigDoc:
     Attributes
     ----------
     data
-        The TOML table (``rig``, ``camera``, ``port``, ``lights``), as :func:`~rigsim.config.schema.read_toml` reads it.
+        The TOML table (``rig``, ``camera``, ``port``, ``lights``), as :func:`~rigsim.schema.read_toml` reads it.
     source
         What error messages name (the file name, or ``<edited rig>``).
     base_dir

@@ -1,5 +1,9 @@
 """The one way rigsim reads configuration: TOML → pydantic models → one-line :class:`ConfigError`.
 
+A foundation module (beside :mod:`rigsim.errors`): the file readers of :mod:`rigsim.config`
+(and the sensor, study and dataset readers) and the self-validating scene types
+(:mod:`rigsim.scene.types`) all build on it, and it imports neither.
+
 Every kind of file (rig, water, sensor, study, dataset) is read by :func:`read_toml`
 and validated by a :class:`FileModel` subclass (``extra="forbid"``: a typo is an
 error); the frozen scene types (:mod:`rigsim.scene.types`) are pydantic dataclasses
