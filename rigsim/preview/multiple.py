@@ -209,7 +209,7 @@ def _sample_phase(tables: PhaseTables, W: np.ndarray, hero: np.ndarray, rng) -> 
 def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.ndarray, *, c: np.ndarray,
                    b: np.ndarray, kappa_cam: np.ndarray, tables: PhaseTables, weights: np.ndarray, width: int, height: int,
                    cutoff_rad: float, photons: int = DEFAULT_PHOTONS, grid: int = DEFAULT_GRID, seed: int = 0,
-                   batches: int = 4) -> MultipleScattering:
+                   batches: int = 4, classes: str = "B") -> MultipleScattering:
     """Class-B light of one group of lights (see module docstring).
 
     Parameters
@@ -231,7 +231,15 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
         ψ_c of the analytic model's forward scattering.
     photons, grid, seed, batches
         Photons in all, cells along the longer image side, seed, independent batches for the noise.
+    classes
+        ``"B"``: class B (see module docstring); ``"all"``: every path, with the exact camera leg
+        (``e^{−c s}``, every scattering and surface splatted to the camera) — the whole image by
+        light tracing, an independent check of the renderer and of the split (noisy: the forward
+        peak of the phase function towards the camera).
     """
+    if classes not in ("B", "all"):
+        raise ValueError("classes must be 'B' or 'all'")
+    every = classes == "all"
     t0 = time.perf_counter()
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), 0x6D55]))
     B = len(wavelength_nm)
@@ -315,7 +323,9 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
                 # counted here: a scattering by more than ψ_c towards the camera after another significant
                 # event (one alone is the analytic model's quasi-single scattering); the camera leg as the
                 # analytic model's, e^{−(c − bF)s}: small-angle scattering on the way back conserved
-                ok = (n_sig[idx[mv]] >= 1) & (cos_psi < cutoff_cos) & (s > reach) & (s < edges[-1])
+                ok = (s > reach) & (s < edges[-1])
+                if not every:
+                    ok &= (n_sig[idx[mv]] >= 1) & (cos_psi < cutoff_cos)
                 if S and np.any(ok):
                     o2 = np.flatnonzero(ok)
                     blocked = occluded(surf, x[o2], pupil)
@@ -329,7 +339,7 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
                     o2 = o2[inside]
                     ic, ir = ic[inside].astype(np.int64), ir[inside].astype(np.int64)
                     ph = np.take(dens, tables.grid.cell_index(cos_psi[o2]), axis=1).T @ weights.T  # (m, B)
-                    val = Fi[mv[o2]] * ph * np.exp(-np.outer(s[o2] - reach, kappa_cam)) \
+                    val = Fi[mv[o2]] * ph * np.exp(-np.outer(s[o2] - reach, c if every else kappa_cam)) \
                         / (s[o2] ** 2 * omega[ir, ic])[:, None]
                     kb = np.clip(np.searchsorted(edges, s[o2], side="right") - 1, 0, N_RANGE_BINS - 1)
                     np.add.at(veil[bi], (ir, ic, kb), val)
@@ -351,6 +361,10 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
                 k = oid[sv] - 1
                 x = p[sv] + t_s[sv, None] * d[sv]
                 dep = n_sig[idx[sv]] >= 1  # one alone (the first event) is the analytic model's direct light
+                if every:
+                    _splat_surface(veil[bi], x, k, d[sv], Fi[sv], refl, surf, pupil, reach, edges, c, omega, cam,
+                                   width, height, cols, rows, n_out)
+                    dep[:] = False
                 if np.any(dep):
                     iu, iv = _texture_cell(surf, k[dep], x[dep])
                     np.add.at(irr[bi], (k[dep], iu, iv), Fi[sv[dep]] / cell_area[k[dep], None])
@@ -375,6 +389,32 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
             keep = idx[survive & alive[idx]]
             F[keep] /= qs[np.searchsorted(idx, keep)][:, None]
     return _result(veil, irr, edges, cols, rows, width, height, photons, n_vert, t0, batches)
+
+
+def _splat_surface(veil, x, k, d_in, F, refl, surf, pupil, reach, edges, c, omega, cam, width, height, cols, rows,
+                   n_out):
+    """``classes="all"``: the light a surface hit reflects towards the camera, splatted like the veil."""
+    v = pupil - x
+    s = np.linalg.norm(v, axis=1)
+    wv = v / s[:, None]
+    nrm = surf.normal[k]
+    lit = np.where((np.sum(nrm * d_in, axis=1) > 0)[:, None], -nrm, nrm)
+    cos_out = np.sum(lit * wv, axis=1)
+    ok = (cos_out > 0) & (s > reach) & (s < edges[-1])
+    o = np.flatnonzero(ok)
+    if o.size:
+        blocked = occluded(surf, x[o] + 1e-7 * lit[o], pupil, exclude=k[o] + 1)
+        o = o[~blocked]
+    if not o.size:
+        return
+    px = project_points(cam, x[o], width, height, n_outside=n_out)
+    ic, ir = np.floor(px[:, 0] / width * cols), np.floor(px[:, 1] / height * rows)
+    inside = np.isfinite(ic) & np.isfinite(ir) & (ic >= 0) & (ic < cols) & (ir >= 0) & (ir < rows)
+    o, ic, ir = o[inside], ic[inside].astype(np.int64), ir[inside].astype(np.int64)
+    val = F[o] * refl[k[o] + 1] * (cos_out[o] / np.pi)[:, None] * np.exp(-np.outer(s[o] - reach, c)) \
+        / (s[o] ** 2 * omega[ir, ic])[:, None]
+    kb = np.clip(np.searchsorted(edges, s[o], side="right") - 1, 0, veil.shape[2] - 1)
+    np.add.at(veil, (ir, ic, kb), val)
 
 
 def _cosine_about(n: np.ndarray, loc: np.ndarray) -> np.ndarray:
