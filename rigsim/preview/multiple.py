@@ -232,14 +232,16 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
     photons, grid, seed, batches
         Photons in all, cells along the longer image side, seed, independent batches for the noise.
     classes
-        ``"B"``: class B (see module docstring); ``"all"``: every path, with the exact camera leg
+        ``"B"``: class B (see module docstring); ``"A"``: the analytic model's own paths, estimated the
+        same way (a check of the analytic model); ``"all"``: every path, with the exact camera leg
         (``e^{−c s}``, every scattering and surface splatted to the camera) — the whole image by
         light tracing, an independent check of the renderer and of the split (noisy: the forward
         peak of the phase function towards the camera).
     """
-    if classes not in ("B", "all"):
-        raise ValueError("classes must be 'B' or 'all'")
+    if classes not in ("B", "all", "A"):
+        raise ValueError("classes must be 'B', 'A' or 'all'")
     every = classes == "all"
+    only_a = classes == "A"  # (a check of the analytic model) its own paths, estimated the same way
     t0 = time.perf_counter()
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), 0x6D55]))
     B = len(wavelength_nm)
@@ -324,7 +326,9 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
                 # event (one alone is the analytic model's quasi-single scattering); the camera leg as the
                 # analytic model's, e^{−(c − bF)s}: small-angle scattering on the way back conserved
                 ok = (s > reach) & (s < edges[-1])
-                if not every:
+                if only_a:
+                    ok &= (n_sig[idx[mv]] == 0) & (cos_psi < cutoff_cos)
+                elif not every:
                     ok &= (n_sig[idx[mv]] >= 1) & (cos_psi < cutoff_cos)
                 if S and np.any(ok):
                     o2 = np.flatnonzero(ok)
@@ -361,6 +365,8 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
                 k = oid[sv] - 1
                 x = p[sv] + t_s[sv, None] * d[sv]
                 dep = n_sig[idx[sv]] >= 1  # one alone (the first event) is the analytic model's direct light
+                if only_a:
+                    dep = ~dep
                 if every:
                     _splat_surface(veil[bi], x, k, d[sv], Fi[sv], refl, surf, pupil, reach, edges, c, omega, cam,
                                    width, height, cols, rows, n_out)
