@@ -238,9 +238,10 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
         light tracing, an independent check of the renderer and of the split (noisy: the forward
         peak of the phase function towards the camera).
     """
-    if classes not in ("B", "all", "A"):
-        raise ValueError("classes must be 'B', 'A' or 'all'")
+    if classes not in ("B", "all", "A", "qss"):
+        raise ValueError("classes must be 'B', 'A', 'qss' or 'all'")
     every = classes == "all"
+    qss = classes == "qss"  # (a check) every path, with the quasi-single-scattering camera leg
     only_a = classes == "A"  # (a check of the analytic model) its own paths, estimated the same way
     t0 = time.perf_counter()
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), 0x6D55]))
@@ -328,6 +329,8 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
                 ok = (s > reach) & (s < edges[-1])
                 if only_a:
                     ok &= (n_sig[idx[mv]] == 0) & (cos_psi < cutoff_cos)
+                elif qss:
+                    ok &= cos_psi < cutoff_cos
                 elif not every:
                     ok &= (n_sig[idx[mv]] >= 1) & (cos_psi < cutoff_cos)
                 if S and np.any(ok):
@@ -367,9 +370,9 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
                 dep = n_sig[idx[sv]] >= 1  # one alone (the first event) is the analytic model's direct light
                 if only_a:
                     dep = ~dep
-                if every:
-                    _splat_surface(veil[bi], x, k, d[sv], Fi[sv], refl, surf, pupil, reach, edges, c, omega, cam,
-                                   width, height, cols, rows, n_out)
+                if every or qss:
+                    _splat_surface(veil[bi], x, k, d[sv], Fi[sv], refl, surf, pupil, reach, edges,
+                                   c if every else kappa_cam, omega, cam, width, height, cols, rows, n_out)
                     dep[:] = False
                 if np.any(dep):
                     iu, iv = _texture_cell(surf, k[dep], x[dep])
