@@ -60,13 +60,27 @@ def _chunk_seed(seed: int, pass_index: int, chunk: int) -> int:
     return int.from_bytes(h, "little")
 
 
+def _aligned_float(a: np.ndarray):
+    """A Dr.Jit Float of ``a`` (float32) from a 64-byte aligned buffer.
+
+    Dr.Jit takes numpy memory as it is and writes the buffer's alignment into the kernel (``align 32``
+    or ``align 1`` loads), so buffers of varying alignment made every render trace a "new" kernel and
+    compile it again (40 s for the strobe integrator): aligned buffers keep one kernel per scene class.
+    """
+    a = np.asarray(a, np.float32).ravel()
+    buf = np.empty(a.size + 16, np.float32)
+    off = (-buf.ctypes.data % 64) // 4
+    out = buf[off:off + a.size]
+    out[:] = a
+    return mi.Float(out)
+
+
 def _rays(camera, px, py, n_outside: float):
     """Mitsuba rays for film positions (Dr.Jit arrays) from the scene's optics (numpy)."""
     dr.eval(px, py)
     o, d = camera_rays(camera, np.asarray(px, np.float64), np.asarray(py, np.float64), n_outside=n_outside)
-    o32, d32 = o.astype(np.float32), d.astype(np.float32)
-    return (mi.Point3f(*(mi.Float(np.ascontiguousarray(o32[:, k])) for k in range(3))),
-            mi.Vector3f(*(mi.Float(np.ascontiguousarray(d32[:, k])) for k in range(3))))
+    return (mi.Point3f(*(_aligned_float(o[:, k]) for k in range(3))),
+            mi.Vector3f(*(_aligned_float(d[:, k]) for k in range(3))))
 
 
 def render_pass(ms: MitsubaScene, camera, *, width: int, height: int, spp: int, seed: int,
