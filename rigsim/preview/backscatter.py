@@ -67,18 +67,19 @@ class LightTables:
     blurred: np.ndarray | None = None
 
     def blurred_at(self, theta: np.ndarray, r: np.ndarray) -> np.ndarray:
-        """f̃(θ; r) per band, shape ``shape(theta) + (Λ,)`` (linear in θ and in ln r, clamped)."""
+        """f̃(θ; r) per band, shape ``shape(theta) + (Λ,)`` (linear in θ and in ln r, clamped), in the
+        table's dtype."""
         tn, rn, tab = self.theta_nodes, self.r_nodes, self.blurred
         x = np.clip(theta / (tn[1] - tn[0]), 0.0, len(tn) - 1.000001)
         i = x.astype(np.int64)
-        fx = (x - i)[..., None]
+        fx = (x - i)[..., None].astype(tab.dtype)
         if len(rn) > 1:
             lr = np.log(rn)
             y = np.clip((np.log(np.maximum(r, 1e-9)) - lr[0]) / (lr[1] - lr[0]), 0.0, len(rn) - 1.000001)
         else:
             y = np.zeros_like(r)
         j = y.astype(np.int64)
-        fy = (y - j)[..., None]
+        fy = (y - j)[..., None].astype(tab.dtype)
         j1 = np.minimum(j + 1, len(rn) - 1)
         nt = len(tn)
         flat = tab.reshape(-1, tab.shape[-1])
@@ -172,7 +173,7 @@ def interpolate_cumulative(cum: np.ndarray, grid_shape: tuple[int, int], grid_co
     Bilinear in the image between the grid rays, linear in s between nodes.
     ``cum`` is (n_rows·n_cols, M, Λ) for a grid of ``grid_shape`` (rows, cols) at
     pixel coordinates ``grid_row`` × ``grid_col``; ``col``, ``row``, ``s_hit`` are
-    arrays of one shape (``s_hit`` = inf reads the full integral).
+    arrays of one shape (``s_hit`` = inf reads the full integral).  The result has ``cum``'s dtype.
     """
     nr, nc = grid_shape
     M = len(s)
@@ -181,7 +182,7 @@ def interpolate_cumulative(cum: np.ndarray, grid_shape: tuple[int, int], grid_co
     def idx(x, nodes):
         k = np.clip(np.searchsorted(nodes, x, side="right") - 1, 0, len(nodes) - 2)
         f = np.clip((x - nodes[k]) / (nodes[k + 1] - nodes[k]), 0.0, 1.0)
-        return k, f
+        return k, f.astype(cum.dtype)
 
     ic, fc = idx(col, grid_col)
     ir, fr = idx(row, grid_row)

@@ -17,7 +17,12 @@ rest, ``exp(−c r)(exp(b r Q(ν)) − 1)``, is the forward-scattered component,
 preview writes as an amplitude ``exp(−c r)(exp(bFr) − 1)`` times a unit-mass
 kernel
 
-``K(ν; τ) = (exp(τ Q(ν)) − 1) / (exp(τ F) − 1)``,  τ = b r.
+``K(ν; τ) = (exp(τ Q(ν)) − 1) / (exp(τ F) − 1)``,  τ = b r,
+
+evaluated (:func:`unit_kernel`) as ``(exp(−τ(F − Q)) − exp(−τF)) / (1 − exp(−τF))``: since
+``0 ≤ Q ≤ F`` every exponent is ≤ 0, so it cannot overflow however thick the water (the
+quotient of two ``expm1`` overflows beyond τF ≈ 709 and gave NaN blur kernels, hence NaN
+images, in strongly scattering water at tens of metres).
 
 This includes multiple small-angle scattering (all orders) — the part of multiple
 scattering that matters most for images — and is the spread function of
@@ -28,7 +33,10 @@ It is used twice:
 
 * **camera leg** — the image of the target (direct component times ``exp(bFr)−1``)
   is convolved with ``K`` by FFT, in pixels through the angular pitch at the image
-  centre, the kernel of each range bin at the bin's range;
+  centre, the kernel of each range bin at the bin's range (:meth:`SmallAngle.blur_bands`:
+  one band at a time — the bands in parallel threads — on a grid padded to at least twice
+  the image, the zero rows of the padding skipped in the row transforms, the kernel, which
+  depends on |ν| only, computed on half of the frequency rows);
 * **light leg** — each light's beam pattern, laid out on a plane of angles around
   its axis (azimuthal equidistant, 2π/128 rad cells), is convolved with ``K`` at a
   few distances; the blurred pattern lights the target and the water with the
@@ -54,7 +62,7 @@ from scipy.special import itj0y0
 from rigsim.scene.phase_tables import PhaseTables
 from rigsim.scene.types import BeamPattern
 
-__all__ = ["SmallAngle", "BEAM_GRID_N", "saa_transform"]
+__all__ = ["SmallAngle", "BEAM_GRID_N", "saa_transform", "unit_kernel"]
 
 #: Cells per side of the angular grid of beam patterns (covering −π…π).
 BEAM_GRID_N = 128
@@ -100,6 +108,43 @@ def _q_table(components: PhaseTables, cutoff_rad: float) -> tuple[np.ndarray, np
     return per[key]
 
 
+def unit_kernel(q: np.ndarray, tau, F) -> np.ndarray:
+    """The unit-mass kernel ``K = (e^{τq} − 1)/(e^{τF} − 1)`` from ``q = Q(ν)`` (see module docstring).
+
+    Parameters
+    ----------
+    q
+        Q(ν) per band, shape ``(…, B)`` (or ``(…)`` with scalar ``tau``, ``F``); float64 or
+        float32 (the result has its dtype).
+    tau, F
+        (B,) optical path b·r and forward fraction Q(0).
+
+    Notes
+    -----
+    Written as ``(e^{−τ(F−q)} − e^{−τF}) / (1 − e^{−τF})``: the exponents are ≤ 0 (``q ≤ F``), so
+    nothing overflows.  In float32 the absolute error is ≲ 1e-7 / (1 − e^{−τF}); use float64
+    where τF is small.  τF → 0: the limit ``q/F`` (1 where there is no forward scattering).
+    """
+    dt = np.float32 if np.asarray(q).dtype == np.float32 else np.float64
+    q = np.asarray(q, dt)
+    tau = np.asarray(tau, np.float64)
+    F = np.asarray(F, np.float64)
+    tf = tau * F
+    small = tf < 1e-9
+    inv = np.where(small, 0.0, 1.0 / np.where(small, 1.0, -np.expm1(-np.where(small, 1.0, tf))))
+    k = (np.exp(tau.astype(dt) * (q - F.astype(dt))) - np.exp(-tf).astype(dt)) * inv.astype(dt)
+    if np.any(small):  # τ → 0: K → Q/F (and 1 where there is no forward scattering at all)
+        lim = np.where(F > 0, 1.0 / np.where(F > 0, F, 1.0), 0.0).astype(dt)
+        k = np.where(small, np.where(F > 0, q * lim, 1.0), k).astype(dt, copy=False)
+    return k
+
+
+#: phase tables → {(cut-off, b, weights, beam, r nodes): blurred beam}, kept while the tables live.
+_BEAM_CACHE: "weakref.WeakKeyDictionary[PhaseTables, dict]" = weakref.WeakKeyDictionary()
+_BEAM_CACHE_SIZE = 16
+_KERNEL_F32_MIN_TF = 0.5  # bands with τF at least this get their blur kernel in float32
+
+
 class SmallAngle:
     """Small-angle forward scattering for a set of bands (see module docstring).
 
@@ -125,55 +170,117 @@ class SmallAngle:
         self.F = self.w @ self.F_k  # (B,)
         self._x, self._Qk = _q_table(components, self.cutoff_rad)
 
+    def q_components(self, nu: np.ndarray) -> np.ndarray:
+        """Q_k(ν) of each phase component, shape ``(K,) + shape(nu)``."""
+        x = np.log1p(np.asarray(nu, float) / _NU0)
+        return np.stack([np.interp(x, self._x, self._Qk[k]) for k in range(self._Qk.shape[0])])
+
     def q(self, nu: np.ndarray) -> np.ndarray:
         """Q(ν) per band, shape ``shape(nu) + (B,)``."""
-        x = np.log1p(np.asarray(nu, float) / _NU0)
-        qk = np.stack([np.interp(x, self._x, self._Qk[k]) for k in range(self._Qk.shape[0])], axis=-1)
-        return qk @ self.w.T
+        return np.moveaxis(self.q_components(nu), 0, -1) @ self.w.T
 
     def kernel(self, nu: np.ndarray, tau: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
         """Unit-mass kernel transform ``K(ν; τ)`` per band, ``shape(nu) + (B,)``; τ (B,) = b r.
 
-        ``q`` is :meth:`q` at ``nu`` if already known.
+        ``q`` is :meth:`q` at ``nu`` if already known.  Float64 (:func:`unit_kernel`).
         """
-        tau = np.asarray(tau, float)
-        q = self.q(nu) if q is None else q
-        tf = tau * self.F
-        small = tf < 1e-9
-        scale = np.where(small, 0.0, 1.0 / np.where(small, 1.0, np.expm1(tf)))
-        k = np.expm1(q * tau) * scale
-        if np.any(small):  # τ → 0: K → Q/F (and 1 where there is no forward scattering at all)
-            lim = np.where(self.F > 0, 1.0 / np.where(self.F > 0, self.F, 1.0), 0.0)
-            k = np.where(small, np.where(self.F > 0, q * lim, 1.0), k)
-        return k
+        q = self.q(nu) if q is None else np.asarray(q, float)
+        return unit_kernel(q, tau, self.F)
 
     # -- camera leg --------------------------------------------------------------------
     def blur_image(self, source: np.ndarray, range_m: np.ndarray, pitch_rad: tuple[float, float], *,
                    max_bins: int = 6, bin_ratio: float = 1.3) -> np.ndarray:
-        """Convolve ``source`` (H, W, B) with the kernel of each pixel's range (bins in log r)."""
-        H, W, B = source.shape
-        finite = np.isfinite(range_m) & np.any(source != 0, axis=2)
+        """Convolve ``source`` (H, W, B) with the kernel of each pixel's range (bins in log r): float64 (H, W, B).
+
+        :meth:`blur_bands` on the bands laid out first.
+        """
+        src = np.ascontiguousarray(np.moveaxis(np.asarray(source), -1, 0), dtype=np.float32)
+        out = self.blur_bands(src, np.asarray(range_m, float), pitch_rad, max_bins=max_bins, bin_ratio=bin_ratio,
+                              out=src)
+        if out is None:
+            return np.array(source, dtype=np.float64)
+        return np.moveaxis(out, 0, -1).astype(np.float64)
+
+    def blur_bands(self, source: np.ndarray, range_m: np.ndarray, pitch_rad: tuple[float, float], *,
+                   max_bins: int = 6, bin_ratio: float = 1.3, nonzero: np.ndarray | None = None,
+                   out: np.ndarray | None = None, map_bands=map) -> np.ndarray | None:
+        """Convolve each band of ``source`` (B, H, W) with the kernel of each pixel's range.
+
+        Pixels are put in at most ``max_bins`` bins of range (``bin_ratio`` apart in log r);
+        those of each bin are convolved with the kernel at the bin's range (the geometric
+        centre of its edges, or the median range with one bin) and the results added.  The
+        FFT grid is padded to at least twice the image in each direction (the kernel is
+        periodic over the padded grid).
+
+        Parameters
+        ----------
+        source
+            (B, H, W) float32, zero where there is nothing to blur.
+        range_m
+            (H, W) range of each pixel (m, inf where nothing is hit: not blurred).
+        pitch_rad
+            Angle between neighbouring pixels (x, y) at the image centre.
+        nonzero
+            (H, W) whether any band of ``source`` is non-zero (computed if None).
+        out
+            (B, H, W) float32 array for the result; may be ``source`` (each band is read
+            before it is written).
+        map_bands
+            ``map``-like callable over band indices (e.g. a thread pool's ``map``: every step
+            of a band releases the GIL).
+
+        Returns
+        -------
+        (B, H, W) float32, or None if nothing is blurred (no pixel with a finite range and a
+        non-zero source, or no forward scattering in any band): the result is then the
+        source itself.
+        """
+        B, H, W = source.shape
+        if nonzero is None:
+            nonzero = np.any(source != 0, axis=0)
+        finite = np.isfinite(range_m) & nonzero
         if not finite.any() or not np.any(self.F > 0):
-            return source.copy()
+            return None
         r = np.where(finite, range_m, np.nan)
         lo, hi = np.nanmin(r), np.nanmax(r)
         n_bins = int(min(max_bins, max(1, np.ceil(np.log(hi / lo) / np.log(bin_ratio)))))
         edges = np.geomspace(lo, hi * (1 + 1e-9), n_bins + 1)
-        Hp, Wp = sfft.next_fast_len(2 * H, real=True), sfft.next_fast_len(2 * W, real=True)
-        fy = np.fft.fftfreq(Hp, d=pitch_rad[1])[:, None]
-        fx = np.fft.rfftfreq(Wp, d=pitch_rad[0])[None, :]
-        nu = np.hypot(fx, fy)
-        q = self.q(nu)
-        out = np.zeros(source.shape, np.float64)
+        bins = []
         for i in range(n_bins):
             m = finite & (r >= edges[i]) & (r < edges[i + 1])
-            if not m.any():
-                continue
-            r_bin = float(np.sqrt(edges[i] * edges[i + 1])) if n_bins > 1 else float(np.nanmedian(r[m]))
-            src = np.where(m[..., None], source, 0.0).astype(np.float32)
-            spec = sfft.rfft2(src, s=(Hp, Wp), axes=(0, 1), workers=-1)
-            spec *= self.kernel(nu, self.b * r_bin, q).astype(np.complex64)
-            out += sfft.irfft2(spec, s=(Hp, Wp), axes=(0, 1), workers=-1)[:H, :W]
+            if m.any():
+                r_bin = float(np.sqrt(edges[i] * edges[i + 1])) if n_bins > 1 else float(np.nanmedian(r[m]))
+                bins.append((m, r_bin))
+        Hp, Wp = sfft.next_fast_len(2 * H, real=True), sfft.next_fast_len(2 * W, real=True)
+        h = Hp // 2  # |ν| of row i and of row Hp − i are equal: the kernel on rows 0 … h only
+        fy = np.fft.fftfreq(Hp, d=pitch_rad[1])[:h + 1, None]
+        fx = np.fft.rfftfreq(Wp, d=pitch_rad[0])[None, :]
+        qk = self.q_components(np.hypot(fx, fy))  # (K, h + 1, Wp/2 + 1)
+        qk32 = qk.astype(np.float32)
+        rows = np.flatnonzero(finite.any(axis=1))
+        r0, r1 = int(rows[0]), int(rows[-1]) + 1  # only these rows of the source are non-zero
+        out = np.empty(source.shape, np.float32) if out is None else out
+
+        def band(b):
+            spec_sum = None
+            for m, r_bin in bins:
+                tau = self.b[b] * r_bin
+                qs = qk32 if tau * self.F[b] >= _KERNEL_F32_MIN_TF else qk
+                q = qs[0] * self.w[b, 0].astype(qs.dtype)
+                for k in range(1, qs.shape[0]):
+                    q += qs[k] * self.w[b, k].astype(qs.dtype)
+                kern = unit_kernel(q, tau, self.F[b]).astype(np.float32, copy=False)
+                rowspec = np.zeros((Hp, Wp // 2 + 1), np.complex64)
+                rowspec[r0:r1] = sfft.rfft(np.where(m[r0:r1], source[b, r0:r1], np.float32(0)), n=Wp, axis=1)
+                spec = sfft.fft(rowspec, axis=0, overwrite_x=True)
+                spec[:h + 1] *= kern
+                spec[h + 1:] *= kern[Hp - h - 1:0:-1]
+                spec_sum = spec if spec_sum is None else np.add(spec_sum, spec, out=spec_sum)
+            cols = sfft.ifft(spec_sum, axis=0, overwrite_x=True)[:H]
+            out[b] = sfft.irfft(cols, n=Wp, axis=1)[:, :W]
+
+        for _ in map_bands(band, range(B)):
+            pass
         return out
 
     # -- light leg ---------------------------------------------------------------------
@@ -183,8 +290,21 @@ class SmallAngle:
         Returns
         -------
         (theta, table)
-            θ nodes (rad, 0…π) and the blurred relative intensity, (n_r, n_θ, B).
+            θ nodes (rad, 0…π) and the blurred relative intensity, (n_r, n_θ, B).  Kept (a
+            few per phase function, while its tables live): do not modify.
         """
+        r_nodes = np.atleast_1d(np.asarray(r_nodes, float))
+        key = (self.cutoff_rad, self.b.tobytes(), self.w.tobytes(), beam, r_nodes.tobytes())
+        per = _BEAM_CACHE.setdefault(self.components, {})
+        hit = per.get(key)
+        if hit is None:
+            hit = self._blurred_beam(beam, r_nodes)
+            if len(per) >= _BEAM_CACHE_SIZE:
+                per.pop(next(iter(per)))
+            per[key] = hit
+        return hit
+
+    def _blurred_beam(self, beam: BeamPattern, r_nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         N = BEAM_GRID_N
         pitch = 2 * np.pi / N
         i = np.fft.fftfreq(N, d=1.0 / N)  # 0, 1, ..., N/2-1, -N/2, ..., -1
@@ -194,10 +314,11 @@ class SmallAngle:
         spec = np.fft.rfft2(f)
         nu = np.hypot(np.fft.fftfreq(N, d=pitch)[:, None], np.fft.rfftfreq(N, d=pitch)[None, :])
         q = self.q(nu)
-        r_nodes = np.atleast_1d(np.asarray(r_nodes, float))
         k = np.stack([self.kernel(nu, self.b * r, q) for r in r_nodes])  # (n_r, N, N/2+1, B)
         # only row 0 (θ_y = 0) of the result is needed: inverse FFT along y is a sum over rows
         row = np.fft.irfft(np.sum(spec[None, :, :, None] * k, axis=1) / N, n=N, axis=1)  # (n_r, N, B)
         table = np.clip(row[:, :N // 2 + 1, :], 0.0, None)
         theta = np.arange(N // 2 + 1) * pitch
+        table.setflags(write=False)
+        theta.setflags(write=False)
         return theta, table

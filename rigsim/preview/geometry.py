@@ -87,7 +87,8 @@ def scene_surfaces(scene: Scene) -> SceneSurfaces:
 
 
 class _RayDots:
-    """Per-ray dot products with the scene's few distinct directions (surfaces share normals and axes)."""
+    """Per-ray quantities shared by the scene's surfaces: dot products with its few distinct directions,
+    and each distinct plane's ray parameter (the ColorChecker's patches share one plane)."""
 
     def __init__(self, origin: np.ndarray, direction: np.ndarray):
         self.o, self.d = origin, direction
@@ -100,25 +101,42 @@ class _RayDots:
             hit = self._cache[key] = (self.o @ axis, self.d @ axis)
         return hit
 
+    def plane(self, normal: np.ndarray, offset: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """``(t, t or 0 where not finite, t > 0 and finite)`` of the plane ``x·normal = offset``."""
+        key = ("plane", tuple(np.round(normal, 15)), float(offset))
+        hit = self._cache.get(key)
+        if hit is None:
+            on, dn = self.dots(normal)
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t = np.where(np.abs(dn) > 1e-12, (offset - on) / dn, np.inf)
+            fin = np.isfinite(t)
+            hit = self._cache[key] = (t, np.where(fin, t, 0.0), (t > 0) & fin)
+        return hit
+
+    def along(self, normal: np.ndarray, offset: float, axis: np.ndarray) -> np.ndarray:
+        """``o·axis + t d·axis``: the coordinate along ``axis`` of the point where each ray meets the plane."""
+        key = ("along", tuple(np.round(normal, 15)), float(offset), tuple(np.round(axis, 15)))
+        hit = self._cache.get(key)
+        if hit is None:
+            oa, da = self.dots(axis)
+            hit = self._cache[key] = oa + self.plane(normal, offset)[1] * da
+        return hit
+
 
 def _hit_t(surf: SceneSurfaces, k: int, origin: np.ndarray, direction: np.ndarray,
            dots: _RayDots | None = None) -> np.ndarray:
     """Ray parameter of the hit with surface ``k`` (inf where missed)."""
     dots = dots or _RayDots(origin, direction)
     c, n, u, v = surf.center[k], surf.normal[k], surf.u[k], surf.v[k]
-    on, dn = dots.dots(n)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = np.where(np.abs(dn) > 1e-12, (c @ n - on) / dn, np.inf)
-    tt = np.where(np.isfinite(t), t, 0.0)
-    ou, du = dots.dots(u)
-    ov, dv = dots.dots(v)
-    a = ou + tt * du - c @ u
-    b = ov + tt * dv - c @ v
+    offset = float(c @ n)
+    t, _, valid = dots.plane(n, offset)
+    a = dots.along(n, offset, u) - c @ u
+    b = dots.along(n, offset, v) - c @ v
     if surf.is_disk[k]:
         inside = a * a + b * b <= surf.half_size[k, 0] ** 2
     else:
         inside = (np.abs(a) <= surf.half_size[k, 0]) & (np.abs(b) <= surf.half_size[k, 1])
-    return np.where(inside & (t > 0) & np.isfinite(t), t, np.inf)
+    return np.where(inside & valid, t, np.inf)
 
 
 def cast_rays(surf: SceneSurfaces, origin: np.ndarray, direction: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
