@@ -167,13 +167,14 @@ def cumulative_backscatter(origin: np.ndarray, direction: np.ndarray, s: np.ndar
 
 def interpolate_cumulative(cum: np.ndarray, grid_shape: tuple[int, int], grid_col: np.ndarray,
                            grid_row: np.ndarray, s: np.ndarray, col: np.ndarray, row: np.ndarray,
-                           s_hit: np.ndarray) -> np.ndarray:
+                           s_hit: np.ndarray, *, out: np.ndarray | None = None) -> np.ndarray:
     """Read the cumulative integral at pixel positions and path lengths.
 
     Bilinear in the image between the grid rays, linear in s between nodes.
     ``cum`` is (n_rows·n_cols, M, Λ) for a grid of ``grid_shape`` (rows, cols) at
     pixel coordinates ``grid_row`` × ``grid_col``; ``col``, ``row``, ``s_hit`` are
-    arrays of one shape (``s_hit`` = inf reads the full integral).  The result has ``cum``'s dtype.
+    arrays of one shape (``s_hit`` = inf reads the full integral).  The result has ``cum``'s dtype;
+    with ``out`` (``shape(col) + (Λ,)``) it is added to ``out``.
     """
     nr, nc = grid_shape
     M = len(s)
@@ -190,11 +191,16 @@ def interpolate_cumulative(cum: np.ndarray, grid_shape: tuple[int, int], grid_co
     js, fs = idx(sh, s)
     flat = cum.reshape(nr * nc * M, -1)
     fs = fs[..., None]
-    out = 0.0
+    if out is None:
+        out = np.zeros(np.shape(col) + (flat.shape[1],), cum.dtype)
     for dr_, wr in ((0, 1 - fr), (1, fr)):
         for dc_, wc in ((0, 1 - fc), (1, fc)):
             base = ((ir + dr_) * nc + (ic + dc_)) * M + js
             a = np.take(flat, base, axis=0)
             b = np.take(flat, base + 1, axis=0)
-            out = out + (wr * wc)[..., None] * (a + (b - a) * fs)
+            b -= a  # out += w (a + (b − a) fs), in place
+            b *= fs
+            b += a
+            b *= (wr * wc)[..., None]
+            out += b
     return out

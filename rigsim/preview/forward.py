@@ -33,7 +33,7 @@ It is used twice:
 
 * **camera leg** — the image of the target (direct component times ``exp(bFr)−1``)
   is convolved with ``K`` by FFT, in pixels through the angular pitch at the image
-  centre, the kernel of each range bin at the bin's range (:meth:`SmallAngle.blur_bands`:
+  centre, the kernel of each range bin at the bin's range (:class:`BlurPlan`:
   one band at a time — the bands in parallel threads — on a grid padded to at least twice
   the image, the zero rows of the padding skipped in the row transforms, the kernel, which
   depends on |ν| only, computed on half of the frequency rows);
@@ -62,7 +62,7 @@ from scipy.special import itj0y0
 from rigsim.scene.phase_tables import PhaseTables
 from rigsim.scene.types import BeamPattern
 
-__all__ = ["SmallAngle", "BEAM_GRID_N", "saa_transform", "unit_kernel"]
+__all__ = ["SmallAngle", "BlurPlan", "BEAM_GRID_N", "saa_transform", "unit_kernel"]
 
 #: Cells per side of the angular grid of beam patterns (covering −π…π).
 BEAM_GRID_N = 128
@@ -204,24 +204,14 @@ class SmallAngle:
     def blur_bands(self, source: np.ndarray, range_m: np.ndarray, pitch_rad: tuple[float, float], *,
                    max_bins: int = 6, bin_ratio: float = 1.3, nonzero: np.ndarray | None = None,
                    out: np.ndarray | None = None, map_bands=map) -> np.ndarray | None:
-        """Convolve each band of ``source`` (B, H, W) with the kernel of each pixel's range.
-
-        Pixels are put in at most ``max_bins`` bins of range (``bin_ratio`` apart in log r);
-        those of each bin are convolved with the kernel at the bin's range (the geometric
-        centre of its edges, or the median range with one bin) and the results added.  The
-        FFT grid is padded to at least twice the image in each direction (the kernel is
-        periodic over the padded grid).
+        """Convolve each band of ``source`` (B, H, W) with the kernel of each pixel's range (:class:`BlurPlan`).
 
         Parameters
         ----------
         source
-            (B, H, W) float32, zero where there is nothing to blur.
-        range_m
-            (H, W) range of each pixel (m, inf where nothing is hit: not blurred).
-        pitch_rad
-            Angle between neighbouring pixels (x, y) at the image centre.
-        nonzero
-            (H, W) whether any band of ``source`` is non-zero (computed if None).
+            (B, H, W), zero where there is nothing to blur.
+        range_m, pitch_rad, max_bins, bin_ratio, nonzero
+            As :meth:`blur_plan` (``nonzero`` is computed from ``source`` if None).
         out
             (B, H, W) float32 array for the result; may be ``source`` (each band is read
             before it is written).
@@ -231,57 +221,52 @@ class SmallAngle:
 
         Returns
         -------
-        (B, H, W) float32, or None if nothing is blurred (no pixel with a finite range and a
-        non-zero source, or no forward scattering in any band): the result is then the
-        source itself.
+        (B, H, W) float32, or None if nothing is blurred (see :meth:`blur_plan`): the result is
+        then the source itself.
         """
         B, H, W = source.shape
         if nonzero is None:
             nonzero = np.any(source != 0, axis=0)
-        finite = np.isfinite(range_m) & nonzero
-        if not finite.any() or not np.any(self.F > 0):
+        plan = self.blur_plan(range_m, pitch_rad, nonzero, max_bins=max_bins, bin_ratio=bin_ratio)
+        if plan is None:
             return None
-        r = np.where(finite, range_m, np.nan)
-        lo, hi = np.nanmin(r), np.nanmax(r)
-        n_bins = int(min(max_bins, max(1, np.ceil(np.log(hi / lo) / np.log(bin_ratio)))))
-        edges = np.geomspace(lo, hi * (1 + 1e-9), n_bins + 1)
-        bins = []
-        for i in range(n_bins):
-            m = finite & (r >= edges[i]) & (r < edges[i + 1])
-            if m.any():
-                r_bin = float(np.sqrt(edges[i] * edges[i + 1])) if n_bins > 1 else float(np.nanmedian(r[m]))
-                bins.append((m, r_bin))
-        Hp, Wp = sfft.next_fast_len(2 * H, real=True), sfft.next_fast_len(2 * W, real=True)
-        h = Hp // 2  # |ν| of row i and of row Hp − i are equal: the kernel on rows 0 … h only
-        fy = np.fft.fftfreq(Hp, d=pitch_rad[1])[:h + 1, None]
-        fx = np.fft.rfftfreq(Wp, d=pitch_rad[0])[None, :]
-        qk = self.q_components(np.hypot(fx, fy))  # (K, h + 1, Wp/2 + 1)
-        qk32 = qk.astype(np.float32)
-        rows = np.flatnonzero(finite.any(axis=1))
-        r0, r1 = int(rows[0]), int(rows[-1]) + 1  # only these rows of the source are non-zero
         out = np.empty(source.shape, np.float32) if out is None else out
 
         def band(b):
-            spec_sum = None
-            for m, r_bin in bins:
-                tau = self.b[b] * r_bin
-                qs = qk32 if tau * self.F[b] >= _KERNEL_F32_MIN_TF else qk
-                q = qs[0] * self.w[b, 0].astype(qs.dtype)
-                for k in range(1, qs.shape[0]):
-                    q += qs[k] * self.w[b, k].astype(qs.dtype)
-                kern = unit_kernel(q, tau, self.F[b]).astype(np.float32, copy=False)
-                rowspec = np.zeros((Hp, Wp // 2 + 1), np.complex64)
-                rowspec[r0:r1] = sfft.rfft(np.where(m[r0:r1], source[b, r0:r1], np.float32(0)), n=Wp, axis=1)
-                spec = sfft.fft(rowspec, axis=0, overwrite_x=True)
-                spec[:h + 1] *= kern
-                spec[h + 1:] *= kern[Hp - h - 1:0:-1]
-                spec_sum = spec if spec_sum is None else np.add(spec_sum, spec, out=spec_sum)
-            cols = sfft.ifft(spec_sum, axis=0, overwrite_x=True)[:H]
-            out[b] = sfft.irfft(cols, n=Wp, axis=1)[:, :W]
+            out[b] = plan.blur(b, source[b])
 
         for _ in map_bands(band, range(B)):
             pass
         return out
+
+    def blur_plan(self, range_m: np.ndarray, pitch_rad: tuple[float, float], nonzero: np.ndarray, *,
+                  max_bins: int = 6, bin_ratio: float = 1.3) -> "BlurPlan | None":
+        """What the camera-leg blur of an image needs, band by band (see :class:`BlurPlan`).
+
+        Pixels are put in at most ``max_bins`` bins of range (``bin_ratio`` apart in log r);
+        those of each bin are convolved with the kernel at the bin's range (the geometric
+        centre of its edges, or the median range with one bin) and the results added.  The
+        FFT grid is padded to at least twice the image in each direction (the kernel is
+        periodic over the padded grid).
+
+        Parameters
+        ----------
+        range_m
+            (H, W) range of each pixel (m, inf where nothing is hit: not blurred).
+        pitch_rad
+            Angle between neighbouring pixels (x, y) at the image centre.
+        nonzero
+            (H, W) whether any band of the source is non-zero.
+
+        Returns
+        -------
+        BlurPlan, or None if there is nothing to blur: no pixel with a finite range and a non-zero
+        source, or no forward scattering in any band.
+        """
+        finite = np.isfinite(range_m) & nonzero
+        if not finite.any() or not np.any(self.F > 0):
+            return None
+        return BlurPlan(self, np.where(finite, range_m, np.nan), finite, pitch_rad, max_bins, bin_ratio)
 
     # -- light leg ---------------------------------------------------------------------
     def blurred_beam(self, beam: BeamPattern, r_nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -317,8 +302,73 @@ class SmallAngle:
         k = np.stack([self.kernel(nu, self.b * r, q) for r in r_nodes])  # (n_r, N, N/2+1, B)
         # only row 0 (θ_y = 0) of the result is needed: inverse FFT along y is a sum over rows
         row = np.fft.irfft(np.sum(spec[None, :, :, None] * k, axis=1) / N, n=N, axis=1)  # (n_r, N, B)
-        table = np.clip(row[:, :N // 2 + 1, :], 0.0, None)
+        table = np.ascontiguousarray(np.clip(row[:, :N // 2 + 1, :], 0.0, None))
         theta = np.arange(N // 2 + 1) * pitch
         table.setflags(write=False)
         theta.setflags(write=False)
         return theta, table
+
+
+class BlurPlan:
+    """The camera-leg blur of one image, band by band (:meth:`SmallAngle.blur_plan`).
+
+    Each band is convolved by FFT on a grid padded to at least twice the image: the rows of the
+    source (only those holding a non-zero pixel) transformed, then the columns; the spectrum times
+    the kernel of each range bin — which depends on |ν| only, so it is computed on the rows of
+    non-negative frequency and mirrored — summed over the bins; back by columns, then by the rows of
+    the image only.  :meth:`blur` releases the GIL in every step: bands can run in threads.
+    """
+
+    def __init__(self, sa: SmallAngle, r: np.ndarray, finite: np.ndarray, pitch_rad, max_bins: int,
+                 bin_ratio: float):
+        self.sa = sa
+        H, W = finite.shape
+        self.shape = (H, W)
+        lo, hi = np.nanmin(r), np.nanmax(r)
+        n_bins = int(min(max_bins, max(1, np.ceil(np.log(hi / lo) / np.log(bin_ratio)))))
+        edges = np.geomspace(lo, hi * (1 + 1e-9), n_bins + 1)
+        self.bins = []
+        for i in range(n_bins):
+            m = finite & (r >= edges[i]) & (r < edges[i + 1])
+            if m.any():
+                r_bin = float(np.sqrt(edges[i] * edges[i + 1])) if n_bins > 1 else float(np.nanmedian(r[m]))
+                self.bins.append((None if n_bins == 1 else m, r_bin))
+        self.finite = finite
+        self.Hp, self.Wp = sfft.next_fast_len(2 * H, real=True), sfft.next_fast_len(2 * W, real=True)
+        self.h = self.Hp // 2  # |ν| of row i and of row Hp − i are equal: the kernel on rows 0 … h only
+        fy = np.fft.fftfreq(self.Hp, d=pitch_rad[1])[:self.h + 1, None]
+        fx = np.fft.rfftfreq(self.Wp, d=pitch_rad[0])[None, :]
+        self.qk = sa.q_components(np.hypot(fx, fy))  # (K, h + 1, Wp/2 + 1)
+        self.qk32 = self.qk.astype(np.float32)
+        rows = np.flatnonzero(finite.any(axis=1))
+        self.r0, self.r1 = int(rows[0]), int(rows[-1]) + 1  # only these rows of the source are non-zero
+
+    def kernel(self, b: int, r_m: float) -> np.ndarray:
+        """Band ``b``'s unit kernel at range ``r_m`` on rows 0 … h of the frequency grid, float32
+        (computed in float32 where τF ≥ 0.5, else in float64: see :func:`unit_kernel`)."""
+        sa = self.sa
+        tau = sa.b[b] * r_m
+        qs = self.qk32 if tau * sa.F[b] >= _KERNEL_F32_MIN_TF else self.qk
+        q = qs[0] * sa.w[b, 0].astype(qs.dtype)
+        for k in range(1, qs.shape[0]):
+            q += qs[k] * sa.w[b, k].astype(qs.dtype)
+        return unit_kernel(q, tau, sa.F[b]).astype(np.float32, copy=False)
+
+    def blur(self, b: int, image: np.ndarray) -> np.ndarray:
+        """Band ``b`` of the source, (H, W), blurred: (H, W) float32 (pixels outside the plan's pixels —
+        not hit, or with a zero source — are taken as zero)."""
+        H, W = self.shape
+        Hp, Wp, h, r0, r1 = self.Hp, self.Wp, self.h, self.r0, self.r1
+        spec_sum = None
+        for m, r_bin in self.bins:
+            mask = self.finite if m is None else m
+            x = np.where(mask[r0:r1], image[r0:r1], np.float32(0)).astype(np.float32, copy=False)
+            spec = np.zeros((Hp, Wp // 2 + 1), np.complex64)
+            spec[r0:r1] = sfft.rfft(x, n=Wp, axis=1)
+            spec = sfft.fft(spec, axis=0, overwrite_x=True)
+            kern = self.kernel(b, r_bin)
+            spec[:h + 1] *= kern
+            spec[h + 1:] *= kern[Hp - h - 1:0:-1]
+            spec_sum = spec if spec_sum is None else np.add(spec_sum, spec, out=spec_sum)
+        cols = sfft.ifft(spec_sum, axis=0, overwrite_x=True)[:H]
+        return sfft.irfft(cols, n=Wp, axis=1)[:, :W]

@@ -78,6 +78,7 @@ import dataclasses
 import hashlib
 import json
 import os
+import threading
 import time
 from collections.abc import Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -272,7 +273,7 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
     shape = (height, width, B)
     results: dict[tuple[str, str], np.ndarray] = {}
 
-    with _thread_map(threads) as pmap:
+    with _no_hugepage_advice(), _thread_map(threads) as pmap:
         view = _view(scene, surf, width, height, pixel_samples, n_out, [l.position_m for l in lit], pmap)
         tick(0.1, "geometry")
         for gi, (gname, lights) in enumerate(groups.items()):
@@ -307,11 +308,8 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
                            want=set(layers))
             group.shade(pmap)
             tick(0.3 + 0.3 * gi, f"{gname}: direct and backscatter")
-            if group.src is not None:
-                fwd = water.small_angle.blur_bands(group.src, view.range_m.astype(float), pitch,
-                                                   nonzero=group.nonzero, out=group.src, map_bands=pmap)
-                group.add_forward(pmap)  # the blurred source, or (None: nothing to blur) the source itself
-                del fwd
+            if forward:
+                group.add_forward(water.small_angle, pitch, pmap)
             tick(0.5 + 0.3 * gi, f"{gname}: forward")
             for k, a in group.layers().items():
                 results[(gname, k)] = a
@@ -371,7 +369,53 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
                          scene=scene, render=RenderInfo("preview"))
 
 
-# --- threads and tiles ---------------------------------------------------------------------
+# --- threads, tiles, memory ----------------------------------------------------------------
+_HUGEPAGE_LOCK = threading.Lock()
+_HUGEPAGE_USERS = [0, None]  # renders in progress, numpy's setting before the first
+
+
+def _thp_compacts_on_fault() -> bool:
+    """Whether the kernel compacts memory synchronously when advised memory faults (THP ``defrag`` set to
+    ``madvise`` or ``defer+madvise``)."""
+    try:
+        with open("/sys/kernel/mm/transparent_hugepage/defrag") as f:
+            mode = f.read().split("[", 1)[1].split("]", 1)[0]
+    except (OSError, IndexError):
+        return False
+    return mode in ("madvise", "defer+madvise")
+
+
+@contextlib.contextmanager
+def _no_hugepage_advice():
+    """numpy advises the kernel to back every array of 4 MB or more with transparent huge pages.  Where
+    the kernel then compacts memory synchronously on the first write to such an array (see
+    :func:`_thp_compacts_on_fault`; numpy issue #31590), fresh memory is several times slower to
+    write — five times on the 2-core development VM, most of the cost of writing an image's layers.
+    The advice is off while an image is made (the first render to start turns it off, the last to end
+    restores numpy's setting); it changes only how fast pages arrive, never a value.
+    """
+    try:
+        from numpy._core import multiarray as ma
+    except ImportError:  # numpy < 2
+        from numpy.core import multiarray as ma
+    get, set_ = getattr(ma, "_get_madvise_hugepage", None), getattr(ma, "_set_madvise_hugepage", None)
+    if get is None or set_ is None or not _thp_compacts_on_fault():
+        yield
+        return
+    with _HUGEPAGE_LOCK:
+        if _HUGEPAGE_USERS[0] == 0:
+            _HUGEPAGE_USERS[1] = bool(get())
+            set_(False)
+        _HUGEPAGE_USERS[0] += 1
+    try:
+        yield
+    finally:
+        with _HUGEPAGE_LOCK:
+            _HUGEPAGE_USERS[0] -= 1
+            if _HUGEPAGE_USERS[0] == 0:
+                set_(_HUGEPAGE_USERS[1])
+
+
 @contextlib.contextmanager
 def _thread_map(threads: int):
     """A ``map`` over ``threads`` threads (the built-in ``map`` for one)."""
@@ -415,14 +459,14 @@ class _Hits:
 
 @dataclasses.dataclass(eq=False)
 class _View:
-    """What the camera sees: pixel-centre rays and hits (H, W), and per tile the hits of its samples."""
+    """What the camera sees: pixel-centre hits (H, W), and per tile the hits of its samples."""
 
+    camera: object
+    n_out: float
     width: int
     height: int
     n: int  # pixel_samples
     tiles: list[tuple[int, int]]
-    o_c: np.ndarray
-    d_c: np.ndarray
     t_c: np.ndarray
     oid_c: np.ndarray
     range_m: np.ndarray
@@ -430,6 +474,11 @@ class _View:
     rows: np.ndarray
     hits: list[_Hits]
     path_max: list[float]  # per lit light: longest light → surface → port path over all samples (m)
+
+    def rays(self, y0: int, y1: int) -> tuple[np.ndarray, np.ndarray]:
+        """Pixel-centre rays (origin, direction) of rows y0 … y1 − 1: (rows, W, 3) each."""
+        X, Y = np.meshgrid(self.cols / self.width, self.rows[y0:y1] / self.height)
+        return camera_rays(self.camera, X, Y, n_outside=self.n_out)
 
 
 def _view(scene: Scene, surf: SceneSurfaces, width: int, height: int, n: int, n_out: float,
@@ -442,7 +491,6 @@ def _view(scene: Scene, surf: SceneSurfaces, width: int, height: int, n: int, n_
     g = (np.arange(n) + 0.5) / n
     PX = ((np.arange(width)[:, None] + g[None, :]).ravel() / width)  # sample positions (pixel_samples > 1)
     PY = ((np.arange(height)[:, None] + g[None, :]).ravel() / height)
-    o_c, d_c = np.empty((height, width, 3)), np.empty((height, width, 3))
     t_c, oid_c = np.empty((height, width)), np.empty((height, width), np.int32)
     range_m = np.empty((height, width), np.float32)
     normals = surf.normal if len(surf) else np.zeros((1, 3))  # a scene of open water only
@@ -452,9 +500,9 @@ def _view(scene: Scene, surf: SceneSurfaces, width: int, height: int, n: int, n_
 
     def tile(i):
         y0, y1 = tiles[i]
-        o, d = camera_rays(cam, *np.meshgrid(cols / width, rows[y0:y1] / height), n_outside=n_out)
+        o, d = view.rays(y0, y1)
         t, oid = cast_rays(surf, o, d)
-        o_c[y0:y1], d_c[y0:y1], t_c[y0:y1], oid_c[y0:y1] = o, d, t, oid
+        t_c[y0:y1], oid_c[y0:y1] = t, oid
         p = o + np.where(np.isfinite(t), t, 0.0)[..., None] * d
         range_m[y0:y1] = np.where(oid > 0, np.linalg.norm(p - pupil, axis=-1), np.inf)
         if n > 1:
@@ -474,9 +522,10 @@ def _view(scene: Scene, surf: SceneSurfaces, width: int, height: int, n: int, n_
             for j, lp in enumerate(lpos):
                 path_max[i, j] = np.max(np.linalg.norm(h.p - lp, axis=-1) + h.ts)
 
+    view = _View(cam, n_out, width, height, n, tiles, t_c, oid_c, range_m, cols, rows, hits, [])
     _run(pmap, tile, range(len(tiles)))
-    longest = [float(m) if np.isfinite(m) else 1.0 for m in path_max.max(axis=0, initial=-np.inf)]
-    return _View(width, height, n, tiles, o_c, d_c, t_c, oid_c, range_m, cols, rows, hits, longest)
+    view.path_max = [float(m) if np.isfinite(m) else 1.0 for m in path_max.max(axis=0, initial=-np.inf)]
+    return view
 
 
 # --- lights --------------------------------------------------------------------------------
@@ -521,8 +570,9 @@ def _lamp(light, lam, lam_w, wl, rho_sub, rho_c, water: _Water | None, forward: 
         return _Lamp(lpos, axis, light.beam.relative_intensity, rho_I)
     # band averages of ρ I e^{−c L} on a table of path lengths L = r + s
     L_nodes = np.linspace(0.0, max(path_max, 1e-3) * 1.0001, 513)
-    tab = np.einsum("kbs,lbs->klb", rho_sub * (I_sub * lam_w),
-                    np.exp(-water.c_sub[None] * L_nodes[:, None, None]), optimize=True)  # (S+1, nL, B)
+    tab = np.ascontiguousarray(np.einsum("kbs,lbs->klb", rho_sub * (I_sub * lam_w),
+                                         np.exp(-water.c_sub[None] * L_nodes[:, None, None]),
+                                         optimize=True))  # (S+1, nL, B)
     lt = LightTables(lpos, axis, light.beam.relative_intensity, I_c)
     if forward:
         th_n, btab = water.small_angle.blurred_beam(light.beam, r_nodes)
@@ -545,8 +595,7 @@ class _Bands:
 class _Group:
     """The image of one light group (continuous or strobe): shaded tile by tile into float32 layers.
 
-    ``full`` = direct + forward-lit target + backscatter (+ the forward blur, :meth:`add_forward`);
-    ``src`` (B, H, W) is the forward blur's source, ``nonzero`` (H, W) where it is non-zero.
+    ``full`` = direct + forward-lit target + backscatter (+ the forward blur, :meth:`add_forward`).
     """
 
     def __init__(self, view: _View, surf: SceneSurfaces, water: _Water | None, lamps: list[_Lamp], rho_c, forward,
@@ -575,10 +624,8 @@ class _Group:
         self.clear = np.empty(shape, np.float32) if ("clear" in want and wet) else None
         self.direct = np.empty(shape, np.float32) if ("direct" in want and wet) else None
         self.back = np.empty(shape, np.float32) if ("backscatter" in want and wet) else None
-        self.src = self.nonzero = None
-        if forward and (lamps or ms is not None):
-            self.src = np.empty((B, H, W), np.float32)
-            self.nonzero = np.empty((H, W), bool)
+        # the forward blur's source, per tile: (flat pixel index, (N, B) values) of the pixels holding any
+        self.src = [None] * len(view.tiles) if forward and (lamps or ms is not None) else None
 
     def layers(self) -> dict[str, np.ndarray]:
         if self.water is None:  # the view without water: every layer is the clear view, no backscatter
@@ -593,45 +640,89 @@ class _Group:
     def shade(self, pmap) -> None:
         _run(pmap, self._shade_tile, range(len(self.view.tiles)))
 
-    def add_forward(self, pmap) -> None:
-        """``full += src`` (after :meth:`~rigsim.preview.forward.SmallAngle.blur_bands` has blurred it)."""
-        if not self.nonzero.any():
+    def add_forward(self, small_angle: SmallAngle, pitch: tuple[float, float], pmap,
+                    bands_per_pass: int = 8) -> None:
+        """``full +=`` the forward blur of the source (the source itself if there is nothing to blur,
+        as :meth:`~rigsim.preview.forward.SmallAngle.blur_bands`), a few bands at a time."""
+        if self.src is None:
+            return
+        v, B, W = self.view, self.B, self.view.width
+        index = np.concatenate([t[0] for t in self.src])
+        values = np.concatenate([t[1] for t in self.src]) if len(index) else np.zeros((0, B), np.float32)
+        nonzero = np.zeros(v.height * W, bool)
+        nonzero[index] = True
+        nonzero = nonzero.reshape(v.height, W)
+        plan = small_angle.blur_plan(v.range_m.astype(float), pitch, nonzero)
+        if plan is None:  # nothing to blur: the source itself
+            self.full.reshape(-1, B)[index] += values
             return
 
-        def tile(i):
-            y0, y1 = self.view.tiles[i]
-            self.full[y0:y1] += np.moveaxis(self.src[:, y0:y1], 0, -1)
+        def image(b):
+            img = np.zeros(v.height * W, np.float32)
+            img[index] = values[:, b]
+            return img.reshape(v.height, W)
 
-        _run(pmap, tile, range(len(self.view.tiles)))
+        for b0 in range(0, B, bands_per_pass):
+            bands = range(b0, min(B, b0 + bands_per_pass))
+            out = np.empty((len(bands), v.height, W), np.float32)
+
+            def blur(j):
+                out[j] = plan.blur(bands[j], image(bands[j]))
+
+            def add(i):
+                y0, y1 = v.tiles[i]
+                self.full[y0:y1, :, bands.start:bands.stop] += np.moveaxis(out[:, y0:y1], 0, -1)
+
+            _run(pmap, blur, range(len(bands)))
+            _run(pmap, add, range(len(v.tiles)))
 
     # -- one tile
     def _shade_tile(self, i: int) -> None:
         v, B = self.view, self.B
         y0, y1 = v.tiles[i]
-        n = v.n
         hits = v.hits[i]
-        grid_shape = ((y1 - y0) * n, v.width * n)
-
-        def pixels(a):  # per-hit values → the tile's pixels (mean over each pixel's samples)
-            return _pixel_mean(_expand(a, grid_shape, hits.idx), n)
-
         clear, direct, scattered, src = self._surface_terms(hits)
         if self.water is None:
-            self.full[y0:y1] = pixels(clear)
+            self._put(self.full, y0, y1, hits, clear)
             return
-        back = self._backscatter(y0, y1)
-        direct, scattered = pixels(direct), pixels(scattered)
-        self.full[y0:y1] = direct + scattered + back
-        if self.clear is not None:
-            self.clear[y0:y1] = pixels(clear)
-        if self.direct is not None:
-            self.direct[y0:y1] = direct
+        full = self.full[y0:y1]
         if self.back is not None:
-            self.back[y0:y1] = back
+            back = self.back[y0:y1]
+            self._backscatter(y0, y1, back)
+            full[...] = back
+        else:
+            self._backscatter(y0, y1, full)
+        self._put(full, y0, y1, hits, direct + scattered, add=True)
+        if self.clear is not None:
+            self._put(self.clear[y0:y1], y0, y1, hits, clear)
+        if self.direct is not None:
+            self._put(self.direct[y0:y1], y0, y1, hits, direct)
         if self.src is not None:
-            src = pixels(src)
-            self.src[:, y0:y1] = np.moveaxis(src, -1, 0)
-            self.nonzero[y0:y1] = np.any(src != 0, axis=-1)
+            n, W = v.n, v.width
+            if n == 1:
+                self.src[i] = (y0 * W + hits.idx, src)
+            else:
+                px = _pixel_mean(_expand(src, ((y1 - y0) * n, W * n), hits.idx), n).reshape(-1, B)
+                nz = np.flatnonzero(np.any(px != 0, axis=-1))
+                self.src[i] = (y0 * W + nz, px[nz])
+
+    def _put(self, out: np.ndarray, y0: int, y1: int, hits: _Hits, a: np.ndarray, add: bool = False) -> None:
+        """Per-hit values ``a`` (N, B) → ``out`` (the tile's pixels, (rows, W, B)): each pixel's mean over
+        its samples, zero (``add``: unchanged) where none hits."""
+        v = self.view
+        if v.n == 1:
+            flat = out.reshape(-1, self.B)
+            if add:
+                flat[hits.idx] += a
+            else:
+                out[...] = 0.0
+                flat[hits.idx] = a
+            return
+        px = _pixel_mean(_expand(a, ((y1 - y0) * v.n, v.width * v.n), hits.idx), v.n)
+        if add:
+            out += px
+        else:
+            out[...] = px
 
     def _surface_terms(self, hits: _Hits):
         """(clear, direct, scattered, src) per hit sample, (N, B) float32: the clear view, the unscattered
@@ -710,21 +801,20 @@ class _Group:
             direct += day_lit * T
         return clear, direct, scattered, src
 
-    def _backscatter(self, y0: int, y1: int) -> np.ndarray:
-        """Backscatter of the lights, multiply scattered veil, daylight path radiance: (rows, W, B) float32."""
+    def _backscatter(self, y0: int, y1: int, back: np.ndarray) -> None:
+        """``back`` (rows, W, B) = backscatter of the lights + multiply scattered veil + daylight path radiance."""
         v = self.view
-        back = np.zeros((y1 - y0, v.width, self.B), np.float32)
+        back[...] = 0.0
         if self.grid is None and self.ms is None and self.day is None:
-            return back
+            return
         C_, R_ = np.meshgrid(v.cols, v.rows[y0:y1])
         if self.grid is not None:
             cum, shape, gcol, grow, s = self.grid
-            back += interpolate_cumulative(cum, shape, gcol, grow, s, C_, R_, v.t_c[y0:y1])
+            interpolate_cumulative(cum, shape, gcol, grow, s, C_, R_, v.t_c[y0:y1], out=back)
         if self.ms is not None:
             back += self.ms.veil_at(C_, R_, v.range_m[y0:y1].astype(float))
         if self.day is not None:
-            back += self.day.path_radiance(v.o_c[y0:y1], v.d_c[y0:y1], v.t_c[y0:y1])
-        return back
+            back += self.day.path_radiance(*v.rays(y0, y1), v.t_c[y0:y1])
 
 
 def _times_expm1(v: np.ndarray, x: np.ndarray) -> np.ndarray:
