@@ -303,7 +303,7 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
             grid = None
             if tables:
                 grid = _backscatter_grid(scene, surf, tables, water, forward, cam, width, height, world_r,
-                                         backscatter_grid, backscatter_nodes, shadows)
+                                         backscatter_grid, backscatter_nodes, shadows, pmap)
             group = _Group(view, surf, water, lamps, rho_c, forward, shadows, day, grid, ms,
                            want=set(layers))
             group.shade(pmap)
@@ -619,10 +619,12 @@ class _Group:
             self.bF_max = float(np.max(water.b * water.F))
         H, W = view.height, view.width
         shape = (H, W, B)
-        self.full = np.empty(shape, np.float32)
         wet = water is not None
-        self.clear = np.empty(shape, np.float32) if ("clear" in want and wet) else None
-        self.direct = np.empty(shape, np.float32) if ("direct" in want and wet) else None
+        # layers that are zero off the targets start as zeros (untouched pages cost nothing): only the
+        # targets' pixels are written
+        self.full = np.empty(shape, np.float32) if wet else np.zeros(shape, np.float32)
+        self.clear = np.zeros(shape, np.float32) if ("clear" in want and wet) else None
+        self.direct = np.zeros(shape, np.float32) if ("direct" in want and wet) else None
         self.back = np.empty(shape, np.float32) if ("backscatter" in want and wet) else None
         # the forward blur's source, per tile: (flat pixel index, (N, B) values) of the pixels holding any
         self.src = [None] * len(view.tiles) if forward and (lamps or ms is not None) else None
@@ -707,15 +709,14 @@ class _Group:
                 self.src[i] = (y0 * W + nz, px[nz])
 
     def _put(self, out: np.ndarray, y0: int, y1: int, hits: _Hits, a: np.ndarray, add: bool = False) -> None:
-        """Per-hit values ``a`` (N, B) → ``out`` (the tile's pixels, (rows, W, B)): each pixel's mean over
-        its samples, zero (``add``: unchanged) where none hits."""
+        """Per-hit values ``a`` (N, B) → ``out`` (the tile's pixels, (rows, W, B), zero where no sample hits
+        unless ``add``): each pixel's mean over its samples, written (``add``: added)."""
         v = self.view
         if v.n == 1:
             flat = out.reshape(-1, self.B)
             if add:
                 flat[hits.idx] += a
             else:
-                out[...] = 0.0
                 flat[hits.idx] = a
             return
         px = _pixel_mean(_expand(a, ((y1 - y0) * v.n, v.width * v.n), hits.idx), v.n)
@@ -855,7 +856,7 @@ def _pixel_mean(a: np.ndarray, n: int) -> np.ndarray:
 
 
 def _backscatter_grid(scene, surf, tables, water, forward, cam, width, height, world_r, grid, n_nodes,
-                      shadows) -> tuple:
+                      shadows, pmap) -> tuple:
     """The cumulative backscatter integral on the coarse grid of rays (every pixel if ``grid`` is None):
     ``(cum float32, (rows, cols), grid cols, grid rows, s nodes)`` for :func:`interpolate_cumulative`."""
     kappa_cam = water.c - water.b * water.F if forward else water.c
@@ -870,11 +871,17 @@ def _backscatter_grid(scene, surf, tables, water, forward, cam, width, height, w
     else:
         step = max(width, height) / float(grid)
         o, d, gcol, grow = pixel_rays(cam, width, height, n_outside=outside_index(scene), step=max(step, 1e-9))
-    cum = cumulative_backscatter(o.reshape(-1, 3), d.reshape(-1, 3), s, tables, bw=water.bw, c=water.c,
-                                 kappa_light=kappa_light, kappa_cam=kappa_cam,
-                                 components=water.components, forward=forward,
-                                 surfaces=surf if shadows else None)
-    return cum.astype(np.float32), (len(grow), len(gcol)), gcol, grow, s
+    o, d = o.reshape(-1, 3), d.reshape(-1, 3)
+    chunks = np.array_split(np.arange(len(o)), max(1, min(len(o) // 64, 8)))
+    cum = np.empty((len(o), len(s), len(water.c)), np.float32)
+
+    def chunk(ix):
+        cum[ix] = cumulative_backscatter(o[ix], d[ix], s, tables, bw=water.bw, c=water.c, kappa_light=kappa_light,
+                                         kappa_cam=kappa_cam, components=water.components, forward=forward,
+                                         surfaces=surf if shadows else None)
+
+    _run(pmap, chunk, chunks)
+    return cum, (len(grow), len(gcol)), gcol, grow, s
 
 
 # --- daylight ------------------------------------------------------------------------------
@@ -924,9 +931,15 @@ class _Daylight:
         t = np.where(np.isfinite(t_hit), t_hit, np.inf)[..., None]
         vy, dy = d[..., 1:2], (o[..., 1] - self.day.y0)[..., None]
         f = self.t[_F32]
-        with np.errstate(over="ignore"):
-            out = path_radiance(self.day32.radiance(d, self.wl), f["c"], f["k_diffuse"], vy.astype(np.float32),
-                                dy.astype(np.float32), t.astype(np.float32), np.exp)
+        look = self.day32.radiance(d, self.wl)
+        dy32 = dy.astype(np.float32)
+        # a line of sight that meets nothing sees all of the field at its origin's height (Duntley's law
+        # at t = ∞, exactly); the others in full
+        out = look * height_factor(f["k_diffuse"], dy32, np.exp)
+        hit = np.isfinite(t[..., 0])
+        if np.any(hit):
+            out[hit] = path_radiance(look[hit], f["c"], f["k_diffuse"], vy[hit].astype(np.float32), dy32[hit],
+                                     t[hit].astype(np.float32), np.exp)
         # a lower bound of min over bands of (c − K v_y) t
         x_lo = t[..., 0] * (self.c.min() - np.maximum(self.k.max() * vy[..., 0], self.k.min() * vy[..., 0]))
         short = x_lo < F32_PATH_MIN
