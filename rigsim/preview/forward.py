@@ -108,41 +108,70 @@ def _q_table(components: PhaseTables, cutoff_rad: float) -> tuple[np.ndarray, np
     return per[key]
 
 
-def unit_kernel(q: np.ndarray, tau, F) -> np.ndarray:
+def unit_kernel(q: np.ndarray | None, tau, F, *, q_minus_F: np.ndarray | None = None) -> np.ndarray:
     """The unit-mass kernel ``K = (e^{τq} − 1)/(e^{τF} − 1)`` from ``q = Q(ν)`` (see module docstring).
 
     Parameters
     ----------
     q
         Q(ν) per band, shape ``(…, B)`` (or ``(…)`` with scalar ``tau``, ``F``); float64 or
-        float32 (the result has its dtype).
+        float32 (the result has its dtype).  May be None if ``q_minus_F`` is given and τF > 1/2 in
+        every band.
     tau, F
         (B,) optical path b·r and forward fraction Q(0).
+    q_minus_F
+        ``Q(ν) − F``, if known more accurately than ``q − F`` (summed from the components'
+        ``Q_k − F_k``: relative to itself, not to F, which matters in float32 at large τ).
 
     Notes
     -----
-    Written as ``(e^{−τ(F−q)} − e^{−τF}) / (1 − e^{−τF})``: the exponents are ≤ 0 (``q ≤ F``), so
-    nothing overflows.  In float32 the absolute error is ≲ 1e-7 / (1 − e^{−τF}); use float64
-    where τF is small.  τF → 0: the limit ``q/F`` (1 where there is no forward scattering).
+    Where τF > 1/2 it is written ``(e^{τ(Q−F)} − e^{−τF}) / (1 − e^{−τF})``: the exponents are
+    ≤ 0 (``Q ≤ F``), so nothing overflows however large τ is, and the absolute error is that of
+    ``e^x`` times ``1/(1 − e^{−τF}) < 2.6`` (~1e-7 in float32).  Where τF ≤ 1/2 (nothing can overflow)
+    it is the quotient of ``expm1``, accurate as τF → 0, whose limit ``q/F`` is taken below τF = 1e-9
+    (1 where there is no forward scattering).
     """
-    dt = np.float32 if np.asarray(q).dtype == np.float32 else np.float64
-    q = np.asarray(q, dt)
+    a = q if q is not None else q_minus_F
+    dt = np.float32 if np.asarray(a).dtype == np.float32 else np.float64
+    q = None if q is None else np.asarray(q, dt)
+    qmf = None if q_minus_F is None else np.asarray(q_minus_F, dt)
     tau = np.asarray(tau, np.float64)
     F = np.asarray(F, np.float64)
+    if tau.ndim == 0:
+        def band(x):
+            return None if x is None else x[..., None]
+        return _unit_kernel_bands(band(q), band(qmf), tau[None], np.atleast_1d(F))[..., 0]
+    return _unit_kernel_bands(q, qmf, tau, F)
+
+
+def _unit_kernel_bands(q, qmf, tau, F):
     tf = tau * F
-    small = tf < 1e-9
-    inv = np.where(small, 0.0, 1.0 / np.where(small, 1.0, -np.expm1(-np.where(small, 1.0, tf))))
-    k = (np.exp(tau.astype(dt) * (q - F.astype(dt))) - np.exp(-tf).astype(dt)) * inv.astype(dt)
-    if np.any(small):  # τ → 0: K → Q/F (and 1 where there is no forward scattering at all)
-        lim = np.where(F > 0, 1.0 / np.where(F > 0, F, 1.0), 0.0).astype(dt)
-        k = np.where(small, np.where(F > 0, q * lim, 1.0), k).astype(dt, copy=False)
+    a = q if q is not None else qmf
+    dt = a.dtype
+    k = np.empty(np.broadcast_shapes(a.shape, tf.shape), dt)
+    thick = tf > 0.5
+    if np.any(thick):
+        t, f, x = tau[thick], F[thick], tf[thick]
+        arg = qmf[..., thick] if qmf is not None else q[..., thick] - f.astype(dt)
+        inv = (1.0 / -np.expm1(-x)).astype(dt)
+        k[..., thick] = (np.exp(t.astype(dt) * arg) - np.exp(-x).astype(dt)) * inv
+    thin = ~thick
+    if np.any(thin):
+        t, f, x = tau[thin], F[thin], tf[thin]
+        small = x < 1e-9
+        with np.errstate(divide="ignore", invalid="ignore"):
+            kt = np.expm1(q[..., thin] * t.astype(dt)) / np.expm1(x).astype(dt)
+        if np.any(small):  # τ → 0: K → Q/F (and 1 where there is no forward scattering at all)
+            lim = np.where(f > 0, 1.0 / np.where(f > 0, f, 1.0), 0.0).astype(dt)
+            kt = np.where(small, np.where(f > 0, q[..., thin] * lim, 1.0), kt)
+        k[..., thin] = kt
     return k
 
 
 #: phase tables → {(cut-off, b, weights, beam, r nodes): blurred beam}, kept while the tables live.
 _BEAM_CACHE: "weakref.WeakKeyDictionary[PhaseTables, dict]" = weakref.WeakKeyDictionary()
 _BEAM_CACHE_SIZE = 16
-_KERNEL_F32_MIN_TF = 0.5  # bands with τF at least this get their blur kernel in float32
+_KERNEL_F32_MIN_TF = 0.5  # bands with τF above this get their blur kernel in float32 (unit_kernel's two forms)
 
 
 class SmallAngle:
@@ -179,13 +208,19 @@ class SmallAngle:
         """Q(ν) per band, shape ``shape(nu) + (B,)``."""
         return np.moveaxis(self.q_components(nu), 0, -1) @ self.w.T
 
+    def q_minus_F(self, nu: np.ndarray) -> np.ndarray:
+        """Q(ν) − F per band, ``shape(nu) + (B,)``, summed from the components' ``Q_k(ν) − Q_k(0)`` (``Q_k(0)`` is
+        the forward fraction ``F_k`` to rounding; the difference is exactly 0 at ν = 0)."""
+        qk = self.q_components(nu)
+        return np.moveaxis(qk - self._Qk[:, :1].reshape((-1,) + (1,) * (qk.ndim - 1)), 0, -1) @ self.w.T
+
     def kernel(self, nu: np.ndarray, tau: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
         """Unit-mass kernel transform ``K(ν; τ)`` per band, ``shape(nu) + (B,)``; τ (B,) = b r.
 
         ``q`` is :meth:`q` at ``nu`` if already known.  Float64 (:func:`unit_kernel`).
         """
         q = self.q(nu) if q is None else np.asarray(q, float)
-        return unit_kernel(q, tau, self.F)
+        return unit_kernel(q, tau, self.F, q_minus_F=self.q_minus_F(nu))
 
     # -- camera leg --------------------------------------------------------------------
     def blur_image(self, source: np.ndarray, range_m: np.ndarray, pitch_rad: tuple[float, float], *,
@@ -298,8 +333,8 @@ class SmallAngle:
         f = np.where(th < np.pi, beam.relative_intensity(np.minimum(th, np.pi)), 0.0)
         spec = np.fft.rfft2(f)
         nu = np.hypot(np.fft.fftfreq(N, d=pitch)[:, None], np.fft.rfftfreq(N, d=pitch)[None, :])
-        q = self.q(nu)
-        k = np.stack([self.kernel(nu, self.b * r, q) for r in r_nodes])  # (n_r, N, N/2+1, B)
+        q, qmf = self.q(nu), self.q_minus_F(nu)
+        k = np.stack([unit_kernel(q, self.b * r, self.F, q_minus_F=qmf) for r in r_nodes])  # (n_r, N, N/2+1, B)
         # only row 0 (θ_y = 0) of the result is needed: inverse FFT along y is a sum over rows
         row = np.fft.irfft(np.sum(spec[None, :, :, None] * k, axis=1) / N, n=N, axis=1)  # (n_r, N, B)
         table = np.ascontiguousarray(np.clip(row[:, :N // 2 + 1, :], 0.0, None))
@@ -339,20 +374,26 @@ class BlurPlan:
         fy = np.fft.fftfreq(self.Hp, d=pitch_rad[1])[:self.h + 1, None]
         fx = np.fft.rfftfreq(self.Wp, d=pitch_rad[0])[None, :]
         self.qk = sa.q_components(np.hypot(fx, fy))  # (K, h + 1, Wp/2 + 1)
-        self.qk32 = self.qk.astype(np.float32)
+        self.dk32 = (self.qk - sa._Qk[:, :1, None]).astype(np.float32)  # Q_k(ν) − Q_k(0) (see q_minus_F)
         rows = np.flatnonzero(finite.any(axis=1))
         self.r0, self.r1 = int(rows[0]), int(rows[-1]) + 1  # only these rows of the source are non-zero
 
     def kernel(self, b: int, r_m: float) -> np.ndarray:
-        """Band ``b``'s unit kernel at range ``r_m`` on rows 0 … h of the frequency grid, float32
-        (computed in float32 where τF ≥ 0.5, else in float64: see :func:`unit_kernel`)."""
+        """Band ``b``'s unit kernel at range ``r_m`` on rows 0 … h of the frequency grid, float32 (from the
+        components' ``Q_k − F_k`` in float32 where τF > 1/2, else from ``Q_k`` in float64: see
+        :func:`unit_kernel`)."""
         sa = self.sa
         tau = sa.b[b] * r_m
-        qs = self.qk32 if tau * sa.F[b] >= _KERNEL_F32_MIN_TF else self.qk
-        q = qs[0] * sa.w[b, 0].astype(qs.dtype)
-        for k in range(1, qs.shape[0]):
-            q += qs[k] * sa.w[b, k].astype(qs.dtype)
-        return unit_kernel(q, tau, sa.F[b]).astype(np.float32, copy=False)
+        w = sa.w[b]
+        if tau * sa.F[b] > _KERNEL_F32_MIN_TF:
+            qmf = self.dk32[0] * np.float32(w[0])
+            for k in range(1, len(w)):
+                qmf += self.dk32[k] * np.float32(w[k])
+            return unit_kernel(None, tau, sa.F[b], q_minus_F=qmf)
+        q = self.qk[0] * w[0]
+        for k in range(1, len(w)):
+            q += self.qk[k] * w[k]
+        return unit_kernel(q, tau, sa.F[b]).astype(np.float32)
 
     def blur(self, b: int, image: np.ndarray) -> np.ndarray:
         """Band ``b`` of the source, (H, W), blurred: (H, W) float32 (pixels outside the plan's pixels —

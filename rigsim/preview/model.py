@@ -685,7 +685,7 @@ class _Group:
         hits = v.hits[i]
         clear, direct, scattered, src = self._surface_terms(hits)
         if self.water is None:
-            self._put(self.full, y0, y1, hits, clear)
+            self._put(self.full[y0:y1], y0, y1, hits, clear)
             return
         full = self.full[y0:y1]
         if self.back is not None:
