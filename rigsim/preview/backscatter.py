@@ -178,7 +178,6 @@ def interpolate_cumulative(cum: np.ndarray, grid_shape: tuple[int, int], grid_co
     """
     nr, nc = grid_shape
     M = len(s)
-    cg = cum.reshape(nr, nc, M, -1)
 
     def idx(x, nodes):
         k = np.clip(np.searchsorted(nodes, x, side="right") - 1, 0, len(nodes) - 2)
@@ -193,14 +192,18 @@ def interpolate_cumulative(cum: np.ndarray, grid_shape: tuple[int, int], grid_co
     fs = fs[..., None]
     if out is None:
         out = np.zeros(np.shape(col) + (flat.shape[1],), cum.dtype)
+    whole = bool(np.all(sh >= s[-1]))  # every line of sight sees the whole integral (open water)
     for dr_, wr in ((0, 1 - fr), (1, fr)):
         for dc_, wc in ((0, 1 - fc), (1, fc)):
-            base = ((ir + dr_) * nc + (ic + dc_)) * M + js
-            a = np.take(flat, base, axis=0)
-            b = np.take(flat, base + 1, axis=0)
-            b -= a  # out += w (a + (b − a) fs), in place
-            b *= fs
-            b += a
+            base = ((ir + dr_) * nc + (ic + dc_)) * M
+            if whole:
+                b = np.take(flat, base + (M - 1), axis=0)
+            else:
+                a = np.take(flat, base + js, axis=0)
+                b = np.take(flat, base + js + 1, axis=0)
+                b -= a  # a + (b − a) fs, in place
+                b *= fs
+                b += a
             b *= (wr * wc)[..., None]
             out += b
     return out
