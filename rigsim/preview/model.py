@@ -469,6 +469,8 @@ class _View:
     tiles: list[tuple[int, int]]
     t_c: np.ndarray
     oid_c: np.ndarray
+    d_c: np.ndarray  # pixel-centre ray directions (H, W, 3) and the height of their origins (H, W)
+    oy_c: np.ndarray
     range_m: np.ndarray
     cols: np.ndarray
     rows: np.ndarray
@@ -492,6 +494,7 @@ def _view(scene: Scene, surf: SceneSurfaces, width: int, height: int, n: int, n_
     PX = ((np.arange(width)[:, None] + g[None, :]).ravel() / width)  # sample positions (pixel_samples > 1)
     PY = ((np.arange(height)[:, None] + g[None, :]).ravel() / height)
     t_c, oid_c = np.empty((height, width)), np.empty((height, width), np.int32)
+    d_c, oy_c = np.empty((height, width, 3)), np.empty((height, width))
     range_m = np.empty((height, width), np.float32)
     normals = surf.normal if len(surf) else np.zeros((1, 3))  # a scene of open water only
     lpos = [np.asarray(x, float) for x in light_positions]
@@ -502,27 +505,29 @@ def _view(scene: Scene, surf: SceneSurfaces, width: int, height: int, n: int, n_
         y0, y1 = tiles[i]
         o, d = view.rays(y0, y1)
         t, oid = cast_rays(surf, o, d)
-        t_c[y0:y1], oid_c[y0:y1] = t, oid
-        p = o + np.where(np.isfinite(t), t, 0.0)[..., None] * d
-        range_m[y0:y1] = np.where(oid > 0, np.linalg.norm(p - pupil, axis=-1), np.inf)
+        t_c[y0:y1], oid_c[y0:y1], d_c[y0:y1], oy_c[y0:y1] = t, oid, d, o[..., 1]
+        o, d, t, oid = o.reshape(-1, 3), d.reshape(-1, 3), t.ravel(), oid.ravel()
+        idx = np.flatnonzero(oid > 0)
+        r = np.full(len(t), np.inf, np.float32)
+        r[idx] = np.linalg.norm(o[idx] + t[idx, None] * d[idx] - pupil, axis=-1)
+        range_m[y0:y1] = r.reshape(y1 - y0, width)
         if n > 1:
             o, d = camera_rays(cam, *np.meshgrid(PX, PY[y0 * n:y1 * n]), n_outside=n_out)
             t, oid = cast_rays(surf, o, d)
-        hit = oid > 0
-        ts = np.where(hit, t, 0.0)
-        p = o + ts[..., None] * d
-        nrm = np.where(hit[..., None], normals[np.maximum(oid - 1, 0)], 0.0)
+            o, d, t, oid = o.reshape(-1, 3), d.reshape(-1, 3), t.ravel(), oid.ravel()
+            idx = np.flatnonzero(oid > 0)
+        ts, oid, d = t[idx], oid[idx], d[idx]
+        p = o[idx] + ts[:, None] * d
+        nrm = normals[oid - 1]
         side = np.sum(nrm * d, axis=-1) > 0  # two-sided: face the camera
-        nrm = np.where(side[..., None], -nrm, nrm)
-        idx = np.flatnonzero(hit)
-        h = _Hits(idx, p.reshape(-1, 3)[idx], nrm.reshape(-1, 3)[idx], side.ravel()[idx], oid.ravel()[idx],
-                  ts.ravel()[idx])
+        nrm = np.where(side[:, None], -nrm, nrm)
+        h = _Hits(idx, p, nrm, side, oid, ts)
         hits[i] = h
         if len(h):
             for j, lp in enumerate(lpos):
                 path_max[i, j] = np.max(np.linalg.norm(h.p - lp, axis=-1) + h.ts)
 
-    view = _View(cam, n_out, width, height, n, tiles, t_c, oid_c, range_m, cols, rows, hits, [])
+    view = _View(cam, n_out, width, height, n, tiles, t_c, oid_c, d_c, oy_c, range_m, cols, rows, hits, [])
     _run(pmap, tile, range(len(tiles)))
     view.path_max = [float(m) if np.isfinite(m) else 1.0 for m in path_max.max(axis=0, initial=-np.inf)]
     return view
@@ -815,7 +820,7 @@ class _Group:
         if self.ms is not None:
             back += self.ms.veil_at(C_, R_, v.range_m[y0:y1].astype(float))
         if self.day is not None:
-            back += self.day.path_radiance(*v.rays(y0, y1), v.t_c[y0:y1])
+            back += self.day.path_radiance(v.oy_c[y0:y1], v.d_c[y0:y1], v.t_c[y0:y1])
 
 
 def _times_expm1(v: np.ndarray, x: np.ndarray) -> np.ndarray:
@@ -922,14 +927,14 @@ class _Daylight:
         e_dif = t["e_dif"][2 * (h.oid - 1) + h.side] * height_factor(t["k_diffuse"], dy, np.exp)
         return e_sun + e_dif
 
-    def path_radiance(self, o: np.ndarray, d: np.ndarray, t_hit: np.ndarray) -> np.ndarray:
+    def path_radiance(self, o_y: np.ndarray, d: np.ndarray, t_hit: np.ndarray) -> np.ndarray:
         """Duntley's path radiance along each pixel ray (…, B) float32, as the renderer's.
 
         Float32, except on lines of sight whose optical depth may be below F32_PATH_MIN in some band
         (``1 − e^{−x}`` would lose its relative precision): float64 there.
         """
         t = np.where(np.isfinite(t_hit), t_hit, np.inf)[..., None]
-        vy, dy = d[..., 1:2], (o[..., 1] - self.day.y0)[..., None]
+        vy, dy = d[..., 1:2], (o_y - self.day.y0)[..., None]
         f = self.t[_F32]
         look = self.day32.radiance(d, self.wl)
         dy32 = dy.astype(np.float32)
