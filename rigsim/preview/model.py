@@ -736,11 +736,8 @@ class _Group:
 
         Float32 where every exponent is within ±:data:`F32_EXP_MAX`, the other samples in float64.
         """
-        f32 = self._terms(hits, _F32) if self.water is None else None
-        if f32 is not None:
-            return f32
-        far = self._far(hits)
-        if not far.any():
+        far = self._far(hits) if self.water is not None else None
+        if far is None or not far.any():
             return self._terms(hits, _F32)
         near_t, far_t = self._terms(hits.subset(~far), _F32), self._terms(hits.subset(far), _F64)
         out = []
