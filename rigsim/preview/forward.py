@@ -53,6 +53,7 @@ water, and missing when it lights the target).
 
 from __future__ import annotations
 
+import threading
 import weakref
 
 import numpy as np
@@ -144,6 +145,16 @@ def unit_kernel(q: np.ndarray | None, tau, F, *, q_minus_F: np.ndarray | None = 
     return _unit_kernel_bands(q, qmf, tau, F)
 
 
+def _thick_kernel(q_minus_F, tau, tf, out):
+    """``(e^{τ(Q−F)} − e^{−τF}) / (1 − e^{−τF})`` into ``out`` (may be ``q_minus_F``): :func:`unit_kernel` where τF > 1/2."""
+    dt = out.dtype
+    np.multiply(q_minus_F, np.asarray(tau).astype(dt), out=out)
+    np.exp(out, out=out)
+    out -= np.exp(-tf).astype(dt)
+    out *= (1.0 / -np.expm1(-tf)).astype(dt)
+    return out
+
+
 def _unit_kernel_bands(q, qmf, tau, F):
     tf = tau * F
     a = q if q is not None else qmf
@@ -153,8 +164,7 @@ def _unit_kernel_bands(q, qmf, tau, F):
     if np.any(thick):
         t, f, x = tau[thick], F[thick], tf[thick]
         arg = qmf[..., thick] if qmf is not None else q[..., thick] - f.astype(dt)
-        inv = (1.0 / -np.expm1(-x)).astype(dt)
-        k[..., thick] = (np.exp(t.astype(dt) * arg) - np.exp(-x).astype(dt)) * inv
+        k[..., thick] = _thick_kernel(arg, t, x, np.empty(arg.shape, dt))
     thin = ~thick
     if np.any(thin):
         t, f, x = tau[thin], F[thin], tf[thin]
@@ -377,6 +387,20 @@ class BlurPlan:
         self.dk32 = (self.qk - sa._Qk[:, :1, None]).astype(np.float32)  # Q_k(ν) − Q_k(0) (see q_minus_F)
         rows = np.flatnonzero(finite.any(axis=1))
         self.r0, self.r1 = int(rows[0]), int(rows[-1]) + 1  # only these rows of the source are non-zero
+        self._local = threading.local()
+
+    def _workspace(self) -> dict:
+        """This thread's buffers, reused band after band (fresh memory is slow to touch)."""
+        ws = getattr(self._local, "ws", None)
+        if ws is None:
+            spec = (self.Hp, self.Wp // 2 + 1)
+            ws = self._local.ws = {
+                "spec": np.empty(spec, np.complex64),
+                "sum": np.empty(spec, np.complex64) if len(self.bins) > 1 else None,
+                "q": np.empty((self.h + 1, spec[1]), np.float32),
+                "tmp": np.empty((self.h + 1, spec[1]), np.float32),
+                "x": np.empty((self.r1 - self.r0, self.shape[1]), np.float32)}
+        return ws
 
     def kernel(self, b: int, r_m: float) -> np.ndarray:
         """Band ``b``'s unit kernel at range ``r_m`` on rows 0 … h of the frequency grid, float32 (from the
@@ -385,11 +409,13 @@ class BlurPlan:
         sa = self.sa
         tau = sa.b[b] * r_m
         w = sa.w[b]
-        if tau * sa.F[b] > _KERNEL_F32_MIN_TF:
-            qmf = self.dk32[0] * np.float32(w[0])
+        if tau * sa.F[b] > _KERNEL_F32_MIN_TF:  # in this thread's buffers
+            ws = self._workspace()
+            qmf, tmp = ws["q"], ws["tmp"]
+            np.multiply(self.dk32[0], np.float32(w[0]), out=qmf)
             for k in range(1, len(w)):
-                qmf += self.dk32[k] * np.float32(w[k])
-            return unit_kernel(None, tau, sa.F[b], q_minus_F=qmf)
+                qmf += np.multiply(self.dk32[k], np.float32(w[k]), out=tmp)
+            return _thick_kernel(qmf, tau, tau * sa.F[b], qmf)
         q = self.qk[0] * w[0]
         for k in range(1, len(w)):
             q += self.qk[k] * w[k]
@@ -400,16 +426,25 @@ class BlurPlan:
         not hit, or with a zero source — are taken as zero)."""
         H, W = self.shape
         Hp, Wp, h, r0, r1 = self.Hp, self.Wp, self.h, self.r0, self.r1
+        ws = self._workspace()
         spec_sum = None
-        for m, r_bin in self.bins:
+        for i, (m, r_bin) in enumerate(self.bins):
             mask = self.finite if m is None else m
-            x = np.where(mask[r0:r1], image[r0:r1], np.float32(0)).astype(np.float32, copy=False)
-            spec = np.zeros((Hp, Wp // 2 + 1), np.complex64)
+            x = np.multiply(image[r0:r1], mask[r0:r1], out=ws["x"])
+            spec = ws["spec"]
+            spec[:r0] = 0
+            spec[r1:] = 0
             spec[r0:r1] = sfft.rfft(x, n=Wp, axis=1)
             spec = sfft.fft(spec, axis=0, overwrite_x=True)
             kern = self.kernel(b, r_bin)
             spec[:h + 1] *= kern
             spec[h + 1:] *= kern[Hp - h - 1:0:-1]
-            spec_sum = spec if spec_sum is None else np.add(spec_sum, spec, out=spec_sum)
+            if ws["sum"] is None:  # one bin
+                spec_sum = spec
+            elif i == 0:
+                spec_sum = ws["sum"]
+                spec_sum[...] = spec
+            else:
+                spec_sum += spec
         cols = sfft.ifft(spec_sum, axis=0, overwrite_x=True)[:H]
         return sfft.irfft(cols, n=Wp, axis=1)[:, :W]

@@ -664,14 +664,19 @@ class _Group:
             self.full.reshape(-1, B)[index] += values
             return
 
-        def image(b):
-            img = np.zeros(v.height * W, np.float32)
+        local = threading.local()
+
+        def image(b):  # this thread's image of band b (zero off the source's pixels, which never change)
+            img = getattr(local, "img", None)
+            if img is None:
+                img = local.img = np.zeros(v.height * W, np.float32)
             img[index] = values[:, b]
             return img.reshape(v.height, W)
 
+        buf = np.empty((min(B, bands_per_pass), v.height, W), np.float32)
         for b0 in range(0, B, bands_per_pass):
             bands = range(b0, min(B, b0 + bands_per_pass))
-            out = np.empty((len(bands), v.height, W), np.float32)
+            out = buf[:len(bands)]
 
             def blur(j):
                 out[j] = plan.blur(bands[j], image(bands[j]))
