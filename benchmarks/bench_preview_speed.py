@@ -33,7 +33,7 @@ sys.path.insert(0, str(ROOT))
 
 from rigsim.config.rig import load_rig  # noqa: E402
 from rigsim.preview import render_preview  # noqa: E402
-from rigsim.preview.model import default_threads  # noqa: E402
+from rigsim.preview.tiles import default_threads  # noqa: E402
 from rigsim.scene.build import build_scene  # noqa: E402
 from rigsim.scene.types import Daylight  # noqa: E402
 from tests.preview.reference.model import render_preview as reference_preview  # noqa: E402
@@ -150,11 +150,11 @@ def main(argv=None) -> int:
     print(f"\n{'size':>10} {'fast wall':>10} {'fast CPU':>9} {'old wall':>9} {'old CPU':>8} {'speed-up':>9}"
           f" {'max rel. diff (element / layer max)':>36}")
     for w, h in sizes:
-        t_new, c_new, img = timed(lambda: render_preview(scene, width=w, height=h, split=True,
-                                                         threads=args.threads), args.repeats)
+        t_new, c_new, img = timed(lambda w=w, h=h: render_preview(scene, width=w, height=h, split=True,
+                                                                   threads=args.threads), args.repeats)
         line = f"{w:>5}x{h:<4} {t_new:9.2f}s {c_new:8.2f}s"
         if not args.no_reference:
-            t_old, c_old, ref = timed(lambda: reference_preview(scene, width=w, height=h, split=True),
+            t_old, c_old, ref = timed(lambda w=w, h=h: reference_preview(scene, width=w, height=h, split=True),
                                       args.reference_repeats)
             el, mx = compare(img, ref)
             line += f" {t_old:8.2f}s {c_old:7.2f}s {t_old / t_new:8.1f}x {el:17.1e} / {mx:.1e}"

@@ -269,7 +269,7 @@ class SmallAngle:
         (B, H, W) float32, or None if nothing is blurred (see :meth:`blur_plan`): the result is
         then the source itself.
         """
-        B, H, W = source.shape
+        B = source.shape[0]
         if nonzero is None:
             nonzero = np.any(source != 0, axis=0)
         plan = self.blur_plan(range_m, pitch_rad, nonzero, max_bins=max_bins, bin_ratio=bin_ratio)

@@ -45,7 +45,7 @@ there.  Beyond the single-scattering regime (Jerlov 3C at 2 m, b·r ≈ 2 per le
 backscatter in front of the target is 25–40 % high and patch radiances differ by
 tens of per cent (the renderer's own noise is as large there).
 
-Computation: the image is shaded in tiles of rows (:data:`TILE_SAMPLES` samples each, so that
+Computation: the image is shaded in tiles of rows (:data:`~rigsim.preview.tiles.TILE_SAMPLES` samples each, so that
 every per-band array of a tile stays in the cache), the tiles in parallel threads (numpy releases
 the GIL); per-band arithmetic is float32 where that keeps the result to ~1e-6 relative (exponents
 within ±:data:`F32_EXP_MAX`; the daylight path radiance on lines of sight of optical depth above
@@ -73,15 +73,12 @@ References
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import hashlib
 import json
-import os
 import threading
 import time
 from collections.abc import Callable, Sequence
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -95,6 +92,7 @@ from rigsim.preview.backscatter import (
 )
 from rigsim.preview.forward import SmallAngle
 from rigsim.preview.geometry import SceneSurfaces, cast_rays, occluded, scene_surfaces
+from rigsim.preview.tiles import default_threads, no_hugepage_advice, row_tiles, run, thread_map
 from rigsim.scene.daylight_field import SceneDaylight, height_factor, path_radiance, scene_daylight
 from rigsim.scene.phase_tables import phase_tables
 from rigsim.scene.types import Scene, unit
@@ -108,8 +106,6 @@ __all__ = ["render_preview", "PREVIEW_LAYERS", "band_edges"]
 #: Ground-truth layers ``render_preview`` can make (as the renderer's).
 PREVIEW_LAYERS = IMAGE_LAYERS
 RENDERER_NAME = "rigsim.preview (Jaffe-McGlamery)"
-#: Samples (pixels × pixel_samples²) per tile of the per-pixel passes.
-TILE_SAMPLES = 8192
 #: Per-band arithmetic of a surface sample is float32 while every exponent it takes is within ±this
 #: (e^x then keeps ~5e-6 relative precision and its products stay far from float32's range); else float64.
 F32_EXP_MAX = 60.0
@@ -163,14 +159,6 @@ def _sub_band_wavelengths(wl: np.ndarray, bw: np.ndarray, n: int) -> tuple[np.nd
     return wl[:, None] + 0.5 * bw[:, None] * x[None, :], w / 2.0
 
 
-def default_threads() -> int:
-    """Threads of the per-pixel passes: the cores this process may run on."""
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except (AttributeError, OSError):  # not on Linux
-        return max(1, os.cpu_count() or 1)
-
-
 def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
                    wavelengths_nm: Sequence[float] = DEFAULT_WAVELENGTHS_NM, bandwidth_nm=None,
                    layers: Sequence[str] = ("range_m", "clear", "object_id"), split: bool = False,
@@ -217,7 +205,7 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
         Called as ``progress(fraction_done, message)``.
     threads
         Threads of the per-pixel passes and of the forward blur (None:
-        :func:`default_threads`, the cores this process may use; the image does not depend on it).
+        :func:`~rigsim.preview.tiles.default_threads`, the cores this process may use; the image does not depend on it).
 
     Returns
     -------
@@ -273,7 +261,7 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
     shape = (height, width, B)
     results: dict[tuple[str, str], np.ndarray] = {}
 
-    with _no_hugepage_advice(), _thread_map(threads) as pmap:
+    with no_hugepage_advice(), thread_map(threads) as pmap:
         view = _view(scene, surf, width, height, pixel_samples, n_out, [l.position_m for l in lit], pmap)
         tick(0.1, "geometry")
         for gi, (gname, lights) in enumerate(groups.items()):
@@ -369,74 +357,6 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
                          scene=scene, render=RenderInfo("preview"))
 
 
-# --- threads, tiles, memory ----------------------------------------------------------------
-_HUGEPAGE_LOCK = threading.Lock()
-_HUGEPAGE_USERS = [0, None]  # renders in progress, numpy's setting before the first
-
-
-def _thp_compacts_on_fault() -> bool:
-    """Whether the kernel compacts memory synchronously when advised memory faults (THP ``defrag`` set to
-    ``madvise`` or ``defer+madvise``)."""
-    try:
-        with open("/sys/kernel/mm/transparent_hugepage/defrag") as f:
-            mode = f.read().split("[", 1)[1].split("]", 1)[0]
-    except (OSError, IndexError):
-        return False
-    return mode in ("madvise", "defer+madvise")
-
-
-@contextlib.contextmanager
-def _no_hugepage_advice():
-    """numpy advises the kernel to back every array of 4 MB or more with transparent huge pages.  Where
-    the kernel then compacts memory synchronously on the first write to such an array (see
-    :func:`_thp_compacts_on_fault`; numpy issue #31590), fresh memory is several times slower to
-    write — five times on the 2-core development VM, most of the cost of writing an image's layers.
-    The advice is off while an image is made (the first render to start turns it off, the last to end
-    restores numpy's setting); it changes only how fast pages arrive, never a value.
-    """
-    try:
-        from numpy._core import multiarray as ma
-    except ImportError:  # numpy < 2
-        from numpy.core import multiarray as ma
-    get, set_ = getattr(ma, "_get_madvise_hugepage", None), getattr(ma, "_set_madvise_hugepage", None)
-    if get is None or set_ is None or not _thp_compacts_on_fault():
-        yield
-        return
-    with _HUGEPAGE_LOCK:
-        if _HUGEPAGE_USERS[0] == 0:
-            _HUGEPAGE_USERS[1] = bool(get())
-            set_(False)
-        _HUGEPAGE_USERS[0] += 1
-    try:
-        yield
-    finally:
-        with _HUGEPAGE_LOCK:
-            _HUGEPAGE_USERS[0] -= 1
-            if _HUGEPAGE_USERS[0] == 0:
-                set_(_HUGEPAGE_USERS[1])
-
-
-@contextlib.contextmanager
-def _thread_map(threads: int):
-    """A ``map`` over ``threads`` threads (the built-in ``map`` for one)."""
-    if threads <= 1:
-        yield map
-        return
-    with ThreadPoolExecutor(max_workers=threads, thread_name_prefix="rigsim-preview") as ex:
-        yield ex.map
-
-
-def _run(pmap, fn, items) -> None:
-    for _ in pmap(fn, items):  # (consumed: exceptions raised in the threads are raised here)
-        pass
-
-
-def _tiles(height: int, samples_per_row: int) -> list[tuple[int, int]]:
-    """Row ranges of about :data:`TILE_SAMPLES` samples each."""
-    rows = max(1, TILE_SAMPLES // max(samples_per_row, 1))
-    return [(y, min(y + rows, height)) for y in range(0, height, rows)]
-
-
 # --- geometry ------------------------------------------------------------------------------
 @dataclasses.dataclass(eq=False)
 class _Hits:
@@ -487,7 +407,7 @@ def _view(scene: Scene, surf: SceneSurfaces, width: int, height: int, n: int, n_
           light_positions: list, pmap) -> _View:
     cam = scene.camera
     pupil = np.asarray(cam.position_m, float)
-    tiles = _tiles(height, width * n * n)
+    tiles = row_tiles(height, width * n * n)
     cols = np.arange(width) + 0.5
     rows = np.arange(height) + 0.5
     g = (np.arange(n) + 0.5) / n
@@ -528,7 +448,7 @@ def _view(scene: Scene, surf: SceneSurfaces, width: int, height: int, n: int, n_
                 path_max[i, j] = np.max(np.linalg.norm(h.p - lp, axis=-1) + h.ts)
 
     view = _View(cam, n_out, width, height, n, tiles, t_c, oid_c, d_c, oy_c, range_m, cols, rows, hits, [])
-    _run(pmap, tile, range(len(tiles)))
+    run(pmap, tile, range(len(tiles)))
     view.path_max = [float(m) if np.isfinite(m) else 1.0 for m in path_max.max(axis=0, initial=-np.inf)]
     return view
 
@@ -645,7 +565,7 @@ class _Group:
         return out
 
     def shade(self, pmap) -> None:
-        _run(pmap, self._shade_tile, range(len(self.view.tiles)))
+        run(pmap, self._shade_tile, range(len(self.view.tiles)))
 
     def add_forward(self, small_angle: SmallAngle, pitch: tuple[float, float], pmap,
                     bands_per_pass: int = 8) -> None:
@@ -674,19 +594,20 @@ class _Group:
             return img.reshape(v.height, W)
 
         buf = np.empty((min(B, bands_per_pass), v.height, W), np.float32)
+
+        def blur(job):
+            j, b = job
+            buf[j] = plan.blur(b, image(b))
+
+        def add(job):
+            i, b0, b1 = job
+            y0, y1 = v.tiles[i]
+            self.full[y0:y1, :, b0:b1] += np.moveaxis(buf[:b1 - b0, y0:y1], 0, -1)
+
         for b0 in range(0, B, bands_per_pass):
-            bands = range(b0, min(B, b0 + bands_per_pass))
-            out = buf[:len(bands)]
-
-            def blur(j):
-                out[j] = plan.blur(bands[j], image(bands[j]))
-
-            def add(i):
-                y0, y1 = v.tiles[i]
-                self.full[y0:y1, :, bands.start:bands.stop] += np.moveaxis(out[:, y0:y1], 0, -1)
-
-            _run(pmap, blur, range(len(bands)))
-            _run(pmap, add, range(len(v.tiles)))
+            b1 = min(B, b0 + bands_per_pass)
+            run(pmap, blur, enumerate(range(b0, b1)))
+            run(pmap, add, [(i, b0, b1) for i in range(len(v.tiles))])
 
     # -- one tile
     def _shade_tile(self, i: int) -> None:
@@ -887,7 +808,7 @@ def _backscatter_grid(scene, surf, tables, water, forward, cam, width, height, w
                                          kappa_cam=kappa_cam, components=water.components, forward=forward,
                                          surfaces=surf if shadows else None)
 
-    _run(pmap, chunk, chunks)
+    run(pmap, chunk, chunks)
     return cum, (len(grow), len(gcol)), gcol, grow, s
 
 

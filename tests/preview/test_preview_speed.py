@@ -16,7 +16,7 @@ import pytest
 
 from rigsim.config.rig import load_rig
 from rigsim.preview import render_preview
-import rigsim.preview.model as preview_model
+import rigsim.preview.tiles as preview_tiles
 from rigsim.preview.forward import SmallAngle, unit_kernel
 from rigsim.scene.build import build_scene
 from rigsim.scene.phase_tables import phase_tables
@@ -104,7 +104,7 @@ def _assert_same(new, ref, rtol=1e-4):
 def test_layers_are_those_of_the_straightforward_model(name, monkeypatch):
     """Each layer of the fast engine within 1e-4 of the reference, in tiles of a few rows (many tiles)."""
     scene, kw = _case(name)
-    monkeypatch.setattr(preview_model, "TILE_SAMPLES", 200)
+    monkeypatch.setattr(preview_tiles, "TILE_SAMPLES", 200)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the reference's expm1 overflows in thick water; aspect warnings
         ref = _all_layers(reference_preview(scene, **kw))
@@ -116,7 +116,7 @@ def test_threads_and_tiles_do_not_change_the_image(monkeypatch):
     scene, kw = _case("strobes-daylight-thick-water")
     a = _all_layers(render_preview(scene, threads=1, **kw))
     b = _all_layers(render_preview(scene, threads=3, **kw))
-    monkeypatch.setattr(preview_model, "TILE_SAMPLES", 10_000_000)  # one tile
+    monkeypatch.setattr(preview_tiles, "TILE_SAMPLES", 10_000_000)  # one tile
     c = _all_layers(render_preview(scene, threads=2, **kw))
     for k in a:
         np.testing.assert_array_equal(a[k], b[k], err_msg=k)
