@@ -5,6 +5,7 @@
 * :mod:`rigsim.preview.forward` — small-angle forward scattering (blur kernels);
 * :mod:`rigsim.preview.backscatter` — the single-scattering integral along each ray;
 * :mod:`rigsim.preview.geometry` — ray casting, shadows (numpy, no Mitsuba).
+* :mod:`rigsim.preview.tiles` — tiles of rows on threads (how the per-pixel passes use every core).
 
 Camera rays, the phase function's tables and the daylight field come from the scene's
 optics layer (:mod:`rigsim.scene.optics`, :mod:`rigsim.scene.phase_tables`,

@@ -67,18 +67,19 @@ class LightTables:
     blurred: np.ndarray | None = None
 
     def blurred_at(self, theta: np.ndarray, r: np.ndarray) -> np.ndarray:
-        """f̃(θ; r) per band, shape ``shape(theta) + (Λ,)`` (linear in θ and in ln r, clamped)."""
+        """f̃(θ; r) per band, shape ``shape(theta) + (Λ,)`` (linear in θ and in ln r, clamped), in the
+        table's dtype."""
         tn, rn, tab = self.theta_nodes, self.r_nodes, self.blurred
         x = np.clip(theta / (tn[1] - tn[0]), 0.0, len(tn) - 1.000001)
         i = x.astype(np.int64)
-        fx = (x - i)[..., None]
+        fx = (x - i)[..., None].astype(tab.dtype)
         if len(rn) > 1:
             lr = np.log(rn)
             y = np.clip((np.log(np.maximum(r, 1e-9)) - lr[0]) / (lr[1] - lr[0]), 0.0, len(rn) - 1.000001)
         else:
             y = np.zeros_like(r)
         j = y.astype(np.int64)
-        fy = (y - j)[..., None]
+        fy = (y - j)[..., None].astype(tab.dtype)
         j1 = np.minimum(j + 1, len(rn) - 1)
         nt = len(tn)
         flat = tab.reshape(-1, tab.shape[-1])
@@ -166,22 +167,22 @@ def cumulative_backscatter(origin: np.ndarray, direction: np.ndarray, s: np.ndar
 
 def interpolate_cumulative(cum: np.ndarray, grid_shape: tuple[int, int], grid_col: np.ndarray,
                            grid_row: np.ndarray, s: np.ndarray, col: np.ndarray, row: np.ndarray,
-                           s_hit: np.ndarray) -> np.ndarray:
+                           s_hit: np.ndarray, *, out: np.ndarray | None = None) -> np.ndarray:
     """Read the cumulative integral at pixel positions and path lengths.
 
     Bilinear in the image between the grid rays, linear in s between nodes.
     ``cum`` is (n_rows·n_cols, M, Λ) for a grid of ``grid_shape`` (rows, cols) at
     pixel coordinates ``grid_row`` × ``grid_col``; ``col``, ``row``, ``s_hit`` are
-    arrays of one shape (``s_hit`` = inf reads the full integral).
+    arrays of one shape (``s_hit`` = inf reads the full integral).  The result has ``cum``'s dtype;
+    with ``out`` (``shape(col) + (Λ,)``) it is added to ``out``.
     """
     nr, nc = grid_shape
     M = len(s)
-    cg = cum.reshape(nr, nc, M, -1)
 
     def idx(x, nodes):
         k = np.clip(np.searchsorted(nodes, x, side="right") - 1, 0, len(nodes) - 2)
         f = np.clip((x - nodes[k]) / (nodes[k + 1] - nodes[k]), 0.0, 1.0)
-        return k, f
+        return k, f.astype(cum.dtype)
 
     ic, fc = idx(col, grid_col)
     ir, fr = idx(row, grid_row)
@@ -189,11 +190,20 @@ def interpolate_cumulative(cum: np.ndarray, grid_shape: tuple[int, int], grid_co
     js, fs = idx(sh, s)
     flat = cum.reshape(nr * nc * M, -1)
     fs = fs[..., None]
-    out = 0.0
+    if out is None:
+        out = np.zeros(np.shape(col) + (flat.shape[1],), cum.dtype)
+    whole = bool(np.all(sh >= s[-1]))  # every line of sight sees the whole integral (open water)
     for dr_, wr in ((0, 1 - fr), (1, fr)):
         for dc_, wc in ((0, 1 - fc), (1, fc)):
-            base = ((ir + dr_) * nc + (ic + dc_)) * M + js
-            a = np.take(flat, base, axis=0)
-            b = np.take(flat, base + 1, axis=0)
-            out = out + (wr * wc)[..., None] * (a + (b - a) * fs)
+            base = ((ir + dr_) * nc + (ic + dc_)) * M
+            if whole:
+                b = np.take(flat, base + (M - 1), axis=0)
+            else:
+                a = np.take(flat, base + js, axis=0)
+                b = np.take(flat, base + js + 1, axis=0)
+                b -= a  # a + (b − a) fs, in place
+                b *= fs
+                b += a
+            b *= (wr * wc)[..., None]
+            out += b
     return out

@@ -17,7 +17,12 @@ rest, ``exp(−c r)(exp(b r Q(ν)) − 1)``, is the forward-scattered component,
 preview writes as an amplitude ``exp(−c r)(exp(bFr) − 1)`` times a unit-mass
 kernel
 
-``K(ν; τ) = (exp(τ Q(ν)) − 1) / (exp(τ F) − 1)``,  τ = b r.
+``K(ν; τ) = (exp(τ Q(ν)) − 1) / (exp(τ F) − 1)``,  τ = b r,
+
+evaluated (:func:`unit_kernel`) as ``(exp(−τ(F − Q)) − exp(−τF)) / (1 − exp(−τF))``: since
+``0 ≤ Q ≤ F`` every exponent is ≤ 0, so it cannot overflow however thick the water (the
+quotient of two ``expm1`` overflows beyond τF ≈ 709 and gave NaN blur kernels, hence NaN
+images, in strongly scattering water at tens of metres).
 
 This includes multiple small-angle scattering (all orders) — the part of multiple
 scattering that matters most for images — and is the spread function of
@@ -28,7 +33,10 @@ It is used twice:
 
 * **camera leg** — the image of the target (direct component times ``exp(bFr)−1``)
   is convolved with ``K`` by FFT, in pixels through the angular pitch at the image
-  centre, the kernel of each range bin at the bin's range;
+  centre, the kernel of each range bin at the bin's range (:class:`BlurPlan`:
+  one band at a time — the bands in parallel threads — on a grid padded to at least twice
+  the image, the zero rows of the padding skipped in the row transforms, the kernel, which
+  depends on |ν| only, computed on half of the frequency rows);
 * **light leg** — each light's beam pattern, laid out on a plane of angles around
   its axis (azimuthal equidistant, 2π/128 rad cells), is convolved with ``K`` at a
   few distances; the blurred pattern lights the target and the water with the
@@ -45,6 +53,7 @@ water, and missing when it lights the target).
 
 from __future__ import annotations
 
+import threading
 import weakref
 
 import numpy as np
@@ -54,7 +63,7 @@ from scipy.special import itj0y0
 from rigsim.scene.phase_tables import PhaseTables
 from rigsim.scene.types import BeamPattern
 
-__all__ = ["SmallAngle", "BEAM_GRID_N", "saa_transform"]
+__all__ = ["SmallAngle", "BlurPlan", "BEAM_GRID_N", "saa_transform", "unit_kernel"]
 
 #: Cells per side of the angular grid of beam patterns (covering −π…π).
 BEAM_GRID_N = 128
@@ -100,6 +109,81 @@ def _q_table(components: PhaseTables, cutoff_rad: float) -> tuple[np.ndarray, np
     return per[key]
 
 
+def unit_kernel(q: np.ndarray | None, tau, F, *, q_minus_F: np.ndarray | None = None) -> np.ndarray:
+    """The unit-mass kernel ``K = (e^{τq} − 1)/(e^{τF} − 1)`` from ``q = Q(ν)`` (see module docstring).
+
+    Parameters
+    ----------
+    q
+        Q(ν) per band, shape ``(…, B)`` (or ``(…)`` with scalar ``tau``, ``F``); float64 or
+        float32 (the result has its dtype).  May be None if ``q_minus_F`` is given and τF > 1/2 in
+        every band.
+    tau, F
+        (B,) optical path b·r and forward fraction Q(0).
+    q_minus_F
+        ``Q(ν) − F``, if known more accurately than ``q − F`` (summed from the components'
+        ``Q_k − F_k``: relative to itself, not to F, which matters in float32 at large τ).
+
+    Notes
+    -----
+    Where τF > 1/2 it is written ``(e^{τ(Q−F)} − e^{−τF}) / (1 − e^{−τF})``: the exponents are
+    ≤ 0 (``Q ≤ F``), so nothing overflows however large τ is, and the absolute error is that of
+    ``e^x`` times ``1/(1 − e^{−τF}) < 2.6`` (~1e-7 in float32).  Where τF ≤ 1/2 (nothing can overflow)
+    it is the quotient of ``expm1``, accurate as τF → 0, whose limit ``q/F`` is taken below τF = 1e-9
+    (1 where there is no forward scattering).
+    """
+    a = q if q is not None else q_minus_F
+    dt = np.float32 if np.asarray(a).dtype == np.float32 else np.float64
+    q = None if q is None else np.asarray(q, dt)
+    qmf = None if q_minus_F is None else np.asarray(q_minus_F, dt)
+    tau = np.asarray(tau, np.float64)
+    F = np.asarray(F, np.float64)
+    if tau.ndim == 0:
+        def band(x):
+            return None if x is None else x[..., None]
+        return _unit_kernel_bands(band(q), band(qmf), tau[None], np.atleast_1d(F))[..., 0]
+    return _unit_kernel_bands(q, qmf, tau, F)
+
+
+def _thick_kernel(q_minus_F, tau, tf, out):
+    """``(e^{τ(Q−F)} − e^{−τF}) / (1 − e^{−τF})`` into ``out`` (may be ``q_minus_F``): :func:`unit_kernel` where τF > 1/2."""
+    dt = out.dtype
+    np.multiply(q_minus_F, np.asarray(tau).astype(dt), out=out)
+    np.exp(out, out=out)
+    out -= np.exp(-tf).astype(dt)
+    out *= (1.0 / -np.expm1(-tf)).astype(dt)
+    return out
+
+
+def _unit_kernel_bands(q, qmf, tau, F):
+    tf = tau * F
+    a = q if q is not None else qmf
+    dt = a.dtype
+    k = np.empty(np.broadcast_shapes(a.shape, tf.shape), dt)
+    thick = tf > 0.5
+    if np.any(thick):
+        t, f, x = tau[thick], F[thick], tf[thick]
+        arg = qmf[..., thick] if qmf is not None else q[..., thick] - f.astype(dt)
+        k[..., thick] = _thick_kernel(arg, t, x, np.empty(arg.shape, dt))
+    thin = ~thick
+    if np.any(thin):
+        t, f, x = tau[thin], F[thin], tf[thin]
+        small = x < 1e-9
+        with np.errstate(divide="ignore", invalid="ignore"):
+            kt = np.expm1(q[..., thin] * t.astype(dt)) / np.expm1(x).astype(dt)
+        if np.any(small):  # τ → 0: K → Q/F (and 1 where there is no forward scattering at all)
+            lim = np.where(f > 0, 1.0 / np.where(f > 0, f, 1.0), 0.0).astype(dt)
+            kt = np.where(small, np.where(f > 0, q[..., thin] * lim, 1.0), kt)
+        k[..., thin] = kt
+    return k
+
+
+#: phase tables → {(cut-off, b, weights, beam, r nodes): blurred beam}, kept while the tables live.
+_BEAM_CACHE: "weakref.WeakKeyDictionary[PhaseTables, dict]" = weakref.WeakKeyDictionary()
+_BEAM_CACHE_SIZE = 16
+_KERNEL_F32_MIN_TF = 0.5  # bands with τF above this get their blur kernel in float32 (unit_kernel's two forms)
+
+
 class SmallAngle:
     """Small-angle forward scattering for a set of bands (see module docstring).
 
@@ -125,56 +209,109 @@ class SmallAngle:
         self.F = self.w @ self.F_k  # (B,)
         self._x, self._Qk = _q_table(components, self.cutoff_rad)
 
+    def q_components(self, nu: np.ndarray) -> np.ndarray:
+        """Q_k(ν) of each phase component, shape ``(K,) + shape(nu)``."""
+        x = np.log1p(np.asarray(nu, float) / _NU0)
+        return np.stack([np.interp(x, self._x, self._Qk[k]) for k in range(self._Qk.shape[0])])
+
     def q(self, nu: np.ndarray) -> np.ndarray:
         """Q(ν) per band, shape ``shape(nu) + (B,)``."""
-        x = np.log1p(np.asarray(nu, float) / _NU0)
-        qk = np.stack([np.interp(x, self._x, self._Qk[k]) for k in range(self._Qk.shape[0])], axis=-1)
-        return qk @ self.w.T
+        return np.moveaxis(self.q_components(nu), 0, -1) @ self.w.T
+
+    def q_minus_F(self, nu: np.ndarray) -> np.ndarray:
+        """Q(ν) − F per band, ``shape(nu) + (B,)``, summed from the components' ``Q_k(ν) − Q_k(0)`` (``Q_k(0)`` is
+        the forward fraction ``F_k`` to rounding; the difference is exactly 0 at ν = 0)."""
+        qk = self.q_components(nu)
+        return np.moveaxis(qk - self._Qk[:, :1].reshape((-1,) + (1,) * (qk.ndim - 1)), 0, -1) @ self.w.T
 
     def kernel(self, nu: np.ndarray, tau: np.ndarray, q: np.ndarray | None = None) -> np.ndarray:
         """Unit-mass kernel transform ``K(ν; τ)`` per band, ``shape(nu) + (B,)``; τ (B,) = b r.
 
-        ``q`` is :meth:`q` at ``nu`` if already known.
+        ``q`` is :meth:`q` at ``nu`` if already known.  Float64 (:func:`unit_kernel`).
         """
-        tau = np.asarray(tau, float)
-        q = self.q(nu) if q is None else q
-        tf = tau * self.F
-        small = tf < 1e-9
-        scale = np.where(small, 0.0, 1.0 / np.where(small, 1.0, np.expm1(tf)))
-        k = np.expm1(q * tau) * scale
-        if np.any(small):  # τ → 0: K → Q/F (and 1 where there is no forward scattering at all)
-            lim = np.where(self.F > 0, 1.0 / np.where(self.F > 0, self.F, 1.0), 0.0)
-            k = np.where(small, np.where(self.F > 0, q * lim, 1.0), k)
-        return k
+        q = self.q(nu) if q is None else np.asarray(q, float)
+        return unit_kernel(q, tau, self.F, q_minus_F=self.q_minus_F(nu))
 
     # -- camera leg --------------------------------------------------------------------
     def blur_image(self, source: np.ndarray, range_m: np.ndarray, pitch_rad: tuple[float, float], *,
                    max_bins: int = 6, bin_ratio: float = 1.3) -> np.ndarray:
-        """Convolve ``source`` (H, W, B) with the kernel of each pixel's range (bins in log r)."""
-        H, W, B = source.shape
-        finite = np.isfinite(range_m) & np.any(source != 0, axis=2)
-        if not finite.any() or not np.any(self.F > 0):
-            return source.copy()
-        r = np.where(finite, range_m, np.nan)
-        lo, hi = np.nanmin(r), np.nanmax(r)
-        n_bins = int(min(max_bins, max(1, np.ceil(np.log(hi / lo) / np.log(bin_ratio)))))
-        edges = np.geomspace(lo, hi * (1 + 1e-9), n_bins + 1)
-        Hp, Wp = sfft.next_fast_len(2 * H, real=True), sfft.next_fast_len(2 * W, real=True)
-        fy = np.fft.fftfreq(Hp, d=pitch_rad[1])[:, None]
-        fx = np.fft.rfftfreq(Wp, d=pitch_rad[0])[None, :]
-        nu = np.hypot(fx, fy)
-        q = self.q(nu)
-        out = np.zeros(source.shape, np.float64)
-        for i in range(n_bins):
-            m = finite & (r >= edges[i]) & (r < edges[i + 1])
-            if not m.any():
-                continue
-            r_bin = float(np.sqrt(edges[i] * edges[i + 1])) if n_bins > 1 else float(np.nanmedian(r[m]))
-            src = np.where(m[..., None], source, 0.0).astype(np.float32)
-            spec = sfft.rfft2(src, s=(Hp, Wp), axes=(0, 1), workers=-1)
-            spec *= self.kernel(nu, self.b * r_bin, q).astype(np.complex64)
-            out += sfft.irfft2(spec, s=(Hp, Wp), axes=(0, 1), workers=-1)[:H, :W]
+        """Convolve ``source`` (H, W, B) with the kernel of each pixel's range (bins in log r): float64 (H, W, B).
+
+        :meth:`blur_bands` on the bands laid out first.
+        """
+        src = np.ascontiguousarray(np.moveaxis(np.asarray(source), -1, 0), dtype=np.float32)
+        out = self.blur_bands(src, np.asarray(range_m, float), pitch_rad, max_bins=max_bins, bin_ratio=bin_ratio,
+                              out=src)
+        if out is None:
+            return np.array(source, dtype=np.float64)
+        return np.moveaxis(out, 0, -1).astype(np.float64)
+
+    def blur_bands(self, source: np.ndarray, range_m: np.ndarray, pitch_rad: tuple[float, float], *,
+                   max_bins: int = 6, bin_ratio: float = 1.3, nonzero: np.ndarray | None = None,
+                   out: np.ndarray | None = None, map_bands=map) -> np.ndarray | None:
+        """Convolve each band of ``source`` (B, H, W) with the kernel of each pixel's range (:class:`BlurPlan`).
+
+        Parameters
+        ----------
+        source
+            (B, H, W), zero where there is nothing to blur.
+        range_m, pitch_rad, max_bins, bin_ratio, nonzero
+            As :meth:`blur_plan` (``nonzero`` is computed from ``source`` if None).
+        out
+            (B, H, W) float32 array for the result; may be ``source`` (each band is read
+            before it is written).
+        map_bands
+            ``map``-like callable over band indices (e.g. a thread pool's ``map``: every step
+            of a band releases the GIL).
+
+        Returns
+        -------
+        (B, H, W) float32, or None if nothing is blurred (see :meth:`blur_plan`): the result is
+        then the source itself.
+        """
+        B = source.shape[0]
+        if nonzero is None:
+            nonzero = np.any(source != 0, axis=0)
+        plan = self.blur_plan(range_m, pitch_rad, nonzero, max_bins=max_bins, bin_ratio=bin_ratio)
+        if plan is None:
+            return None
+        out = np.empty(source.shape, np.float32) if out is None else out
+
+        def band(b):
+            out[b] = plan.blur(b, source[b])
+
+        for _ in map_bands(band, range(B)):
+            pass
         return out
+
+    def blur_plan(self, range_m: np.ndarray, pitch_rad: tuple[float, float], nonzero: np.ndarray, *,
+                  max_bins: int = 6, bin_ratio: float = 1.3) -> "BlurPlan | None":
+        """What the camera-leg blur of an image needs, band by band (see :class:`BlurPlan`).
+
+        Pixels are put in at most ``max_bins`` bins of range (``bin_ratio`` apart in log r);
+        those of each bin are convolved with the kernel at the bin's range (the geometric
+        centre of its edges, or the median range with one bin) and the results added.  The
+        FFT grid is padded to at least twice the image in each direction (the kernel is
+        periodic over the padded grid).
+
+        Parameters
+        ----------
+        range_m
+            (H, W) range of each pixel (m, inf where nothing is hit: not blurred).
+        pitch_rad
+            Angle between neighbouring pixels (x, y) at the image centre.
+        nonzero
+            (H, W) whether any band of the source is non-zero.
+
+        Returns
+        -------
+        BlurPlan, or None if there is nothing to blur: no pixel with a finite range and a non-zero
+        source, or no forward scattering in any band.
+        """
+        finite = np.isfinite(range_m) & nonzero
+        if not finite.any() or not np.any(self.F > 0):
+            return None
+        return BlurPlan(self, np.where(finite, range_m, np.nan), finite, pitch_rad, max_bins, bin_ratio)
 
     # -- light leg ---------------------------------------------------------------------
     def blurred_beam(self, beam: BeamPattern, r_nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -183,8 +320,21 @@ class SmallAngle:
         Returns
         -------
         (theta, table)
-            θ nodes (rad, 0…π) and the blurred relative intensity, (n_r, n_θ, B).
+            θ nodes (rad, 0…π) and the blurred relative intensity, (n_r, n_θ, B).  Kept (a
+            few per phase function, while its tables live): do not modify.
         """
+        r_nodes = np.atleast_1d(np.asarray(r_nodes, float))
+        key = (self.cutoff_rad, self.b.tobytes(), self.w.tobytes(), beam, r_nodes.tobytes())
+        per = _BEAM_CACHE.setdefault(self.components, {})
+        hit = per.get(key)
+        if hit is None:
+            hit = self._blurred_beam(beam, r_nodes)
+            if len(per) >= _BEAM_CACHE_SIZE:
+                per.pop(next(iter(per)))
+            per[key] = hit
+        return hit
+
+    def _blurred_beam(self, beam: BeamPattern, r_nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         N = BEAM_GRID_N
         pitch = 2 * np.pi / N
         i = np.fft.fftfreq(N, d=1.0 / N)  # 0, 1, ..., N/2-1, -N/2, ..., -1
@@ -193,11 +343,108 @@ class SmallAngle:
         f = np.where(th < np.pi, beam.relative_intensity(np.minimum(th, np.pi)), 0.0)
         spec = np.fft.rfft2(f)
         nu = np.hypot(np.fft.fftfreq(N, d=pitch)[:, None], np.fft.rfftfreq(N, d=pitch)[None, :])
-        q = self.q(nu)
-        r_nodes = np.atleast_1d(np.asarray(r_nodes, float))
-        k = np.stack([self.kernel(nu, self.b * r, q) for r in r_nodes])  # (n_r, N, N/2+1, B)
+        q, qmf = self.q(nu), self.q_minus_F(nu)
+        k = np.stack([unit_kernel(q, self.b * r, self.F, q_minus_F=qmf) for r in r_nodes])  # (n_r, N, N/2+1, B)
         # only row 0 (θ_y = 0) of the result is needed: inverse FFT along y is a sum over rows
         row = np.fft.irfft(np.sum(spec[None, :, :, None] * k, axis=1) / N, n=N, axis=1)  # (n_r, N, B)
-        table = np.clip(row[:, :N // 2 + 1, :], 0.0, None)
+        table = np.ascontiguousarray(np.clip(row[:, :N // 2 + 1, :], 0.0, None))
         theta = np.arange(N // 2 + 1) * pitch
+        table.setflags(write=False)
+        theta.setflags(write=False)
         return theta, table
+
+
+class BlurPlan:
+    """The camera-leg blur of one image, band by band (:meth:`SmallAngle.blur_plan`).
+
+    Each band is convolved by FFT on a grid padded to at least twice the image: the rows of the
+    source (only those holding a non-zero pixel) transformed, then the columns; the spectrum times
+    the kernel of each range bin — which depends on |ν| only, so it is computed on the rows of
+    non-negative frequency and mirrored — summed over the bins; back by columns, then by the rows of
+    the image only.  :meth:`blur` releases the GIL in every step: bands can run in threads.
+    """
+
+    def __init__(self, sa: SmallAngle, r: np.ndarray, finite: np.ndarray, pitch_rad, max_bins: int,
+                 bin_ratio: float):
+        self.sa = sa
+        H, W = finite.shape
+        self.shape = (H, W)
+        lo, hi = np.nanmin(r), np.nanmax(r)
+        n_bins = int(min(max_bins, max(1, np.ceil(np.log(hi / lo) / np.log(bin_ratio)))))
+        edges = np.geomspace(lo, hi * (1 + 1e-9), n_bins + 1)
+        self.bins = []
+        for i in range(n_bins):
+            m = finite & (r >= edges[i]) & (r < edges[i + 1])
+            if m.any():
+                r_bin = float(np.sqrt(edges[i] * edges[i + 1])) if n_bins > 1 else float(np.nanmedian(r[m]))
+                self.bins.append((None if n_bins == 1 else m, r_bin))
+        self.finite = finite
+        self.Hp, self.Wp = sfft.next_fast_len(2 * H, real=True), sfft.next_fast_len(2 * W, real=True)
+        self.h = self.Hp // 2  # |ν| of row i and of row Hp − i are equal: the kernel on rows 0 … h only
+        fy = np.fft.fftfreq(self.Hp, d=pitch_rad[1])[:self.h + 1, None]
+        fx = np.fft.rfftfreq(self.Wp, d=pitch_rad[0])[None, :]
+        self.qk = sa.q_components(np.hypot(fx, fy))  # (K, h + 1, Wp/2 + 1)
+        self.dk32 = (self.qk - sa._Qk[:, :1, None]).astype(np.float32)  # Q_k(ν) − Q_k(0) (see q_minus_F)
+        rows = np.flatnonzero(finite.any(axis=1))
+        self.r0, self.r1 = int(rows[0]), int(rows[-1]) + 1  # only these rows of the source are non-zero
+        self._local = threading.local()
+
+    def _workspace(self) -> dict:
+        """This thread's buffers, reused band after band (fresh memory is slow to touch)."""
+        ws = getattr(self._local, "ws", None)
+        if ws is None:
+            spec = (self.Hp, self.Wp // 2 + 1)
+            ws = self._local.ws = {
+                "spec": np.empty(spec, np.complex64),
+                "sum": np.empty(spec, np.complex64) if len(self.bins) > 1 else None,
+                "q": np.empty((self.h + 1, spec[1]), np.float32),
+                "tmp": np.empty((self.h + 1, spec[1]), np.float32),
+                "x": np.empty((self.r1 - self.r0, self.shape[1]), np.float32)}
+        return ws
+
+    def kernel(self, b: int, r_m: float) -> np.ndarray:
+        """Band ``b``'s unit kernel at range ``r_m`` on rows 0 … h of the frequency grid, float32 (from the
+        components' ``Q_k − F_k`` in float32 where τF > 1/2, else from ``Q_k`` in float64: see
+        :func:`unit_kernel`)."""
+        sa = self.sa
+        tau = sa.b[b] * r_m
+        w = sa.w[b]
+        if tau * sa.F[b] > _KERNEL_F32_MIN_TF:  # in this thread's buffers
+            ws = self._workspace()
+            qmf, tmp = ws["q"], ws["tmp"]
+            np.multiply(self.dk32[0], np.float32(w[0]), out=qmf)
+            for k in range(1, len(w)):
+                qmf += np.multiply(self.dk32[k], np.float32(w[k]), out=tmp)
+            return _thick_kernel(qmf, tau, tau * sa.F[b], qmf)
+        q = self.qk[0] * w[0]
+        for k in range(1, len(w)):
+            q += self.qk[k] * w[k]
+        return unit_kernel(q, tau, sa.F[b]).astype(np.float32)
+
+    def blur(self, b: int, image: np.ndarray) -> np.ndarray:
+        """Band ``b`` of the source, (H, W), blurred: (H, W) float32 (pixels outside the plan's pixels —
+        not hit, or with a zero source — are taken as zero)."""
+        H, W = self.shape
+        Hp, Wp, h, r0, r1 = self.Hp, self.Wp, self.h, self.r0, self.r1
+        ws = self._workspace()
+        spec_sum = None
+        for i, (m, r_bin) in enumerate(self.bins):
+            mask = self.finite if m is None else m
+            x = np.multiply(image[r0:r1], mask[r0:r1], out=ws["x"])
+            spec = ws["spec"]
+            spec[:r0] = 0
+            spec[r1:] = 0
+            spec[r0:r1] = sfft.rfft(x, n=Wp, axis=1)
+            spec = sfft.fft(spec, axis=0, overwrite_x=True)
+            kern = self.kernel(b, r_bin)
+            spec[:h + 1] *= kern
+            spec[h + 1:] *= kern[Hp - h - 1:0:-1]
+            if ws["sum"] is None:  # one bin
+                spec_sum = spec
+            elif i == 0:
+                spec_sum = ws["sum"]
+                spec_sum[...] = spec
+            else:
+                spec_sum += spec
+        cols = sfft.ifft(spec_sum, axis=0, overwrite_x=True)[:H]
+        return sfft.irfft(cols, n=Wp, axis=1)[:, :W]

@@ -45,6 +45,14 @@ there.  Beyond the single-scattering regime (Jerlov 3C at 2 m, b·r ≈ 2 per le
 backscatter in front of the target is 25–40 % high and patch radiances differ by
 tens of per cent (the renderer's own noise is as large there).
 
+Computation: the image is shaded in tiles of rows (:data:`~rigsim.preview.tiles.TILE_SAMPLES` samples each, so that
+every per-band array of a tile stays in the cache), the tiles in parallel threads (numpy releases
+the GIL); per-band arithmetic is float32 where that keeps the result to ~1e-6 relative (exponents
+within ±:data:`F32_EXP_MAX`; the daylight path radiance on lines of sight of optical depth above
+:data:`F32_PATH_MIN`), float64 elsewhere; the forward blur is one FFT per band and range bin
+(:meth:`~rigsim.preview.forward.SmallAngle.blur_bands`).  The backscatter integral is computed on
+its coarse grid of rays only and interpolated.
+
 Conventions are the renderer's (:func:`rigsim.render.render`): bands are averages
 over ``[centre ± width/2]`` (the direct component by ``sub_bands``-point
 Gauss–Legendre quadrature in each band; the water, blur kernels and backscatter at
@@ -68,6 +76,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
+import threading
 import time
 from collections.abc import Callable, Sequence
 
@@ -82,22 +91,30 @@ from rigsim.preview.backscatter import (
     s_nodes,
 )
 from rigsim.preview.forward import SmallAngle
-from rigsim.preview.geometry import cast_rays, occluded, scene_surfaces
-from rigsim.scene.daylight_field import height_factor, path_radiance, scene_daylight
+from rigsim.preview.geometry import SceneSurfaces, cast_rays, occluded, scene_surfaces
+from rigsim.preview.tiles import default_threads, no_hugepage_advice, row_tiles, run, thread_map
+from rigsim.scene.daylight_field import SceneDaylight, height_factor, path_radiance, scene_daylight
 from rigsim.scene.phase_tables import phase_tables
 from rigsim.scene.types import Scene, unit
 from rigsim.spectral_image import RenderInfo, SpectralImage
 from rigsim.spectrum import DEFAULT_WAVELENGTHS_NM, band_edges
 from rigsim.scene.imaging import IMAGE_LAYERS, check_int, check_scene_for_bands, image_request
-from rigsim.scene.optics import angular_pitch_rad, camera_rays, fov_water_deg, outside_index, pixel_rays, world_radius_m
+from rigsim.scene.optics import angular_pitch_rad, camera_rays, fov_water_deg, outside_index, world_radius_m
 
 __all__ = ["render_preview", "PREVIEW_LAYERS", "band_edges"]
 
 #: Ground-truth layers ``render_preview`` can make (as the renderer's).
 PREVIEW_LAYERS = IMAGE_LAYERS
 RENDERER_NAME = "rigsim.preview (Jaffe-McGlamery)"
+#: Per-band arithmetic of a surface sample is float32 while every exponent it takes is within ±this
+#: (e^x then keeps ~5e-6 relative precision and its products stay far from float32's range); else float64.
+F32_EXP_MAX = 60.0
+#: The daylight path radiance ``∝ 1 − e^{−x}`` is float32 where the line of sight's optical depth x is at
+#: least this for every band (relative error ≤ 6e-8/x), float64 where it is less.
+F32_PATH_MIN = 1e-2
 
 ProgressCallback = Callable[[float, str], None]
+_F32, _F64 = np.dtype(np.float32), np.dtype(np.float64)
 
 
 @dataclasses.dataclass
@@ -149,7 +166,8 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
                    sub_bands: int = 3, pixel_samples: int = 1, backscatter_grid: int | None = 32,
                    backscatter_nodes: int = 64, multiple: bool = False, photons: int | None = None,
                    ms_grid: int | None = None, spp: int | None = None, seed: int | None = None,
-                   max_depth: int | None = None, progress: ProgressCallback | None = None) -> SpectralImage:
+                   max_depth: int | None = None, progress: ProgressCallback | None = None,
+                   threads: int | None = None) -> SpectralImage:
     """Fast semi-analytic image of a :class:`~rigsim.scene.types.Scene` (see module docstring).
 
     Parameters
@@ -185,6 +203,9 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
         (the preview is deterministic and has no sampling).
     progress
         Called as ``progress(fraction_done, message)``.
+    threads
+        Threads of the per-pixel passes and of the forward blur (None:
+        :func:`~rigsim.preview.tiles.default_threads`, the cores this process may use; the image does not depend on it).
 
     Returns
     -------
@@ -209,6 +230,7 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
     sub_bands = check_int("sub_bands", sub_bands, 1, 16)
     pixel_samples = check_int("pixel_samples", pixel_samples, 1, 16)
     backscatter_nodes = check_int("backscatter_nodes", backscatter_nodes, 8, 4096)
+    threads = default_threads() if threads is None else check_int("threads", threads, 1, 1024)
     if not 0.0 < float(forward_cutoff_deg) <= 90.0:
         raise ConfigError(f"forward cut-off must be in (0, 90] deg, got {forward_cutoff_deg}",
                           field="forward_cutoff_deg", allowed="0 < angle <= 90")
@@ -227,161 +249,81 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
     water = _water_at(scene, wl, lam, cutoff, forward)
     surf = scene_surfaces(scene)
     cam = scene.camera
-    pupil = np.asarray(cam.position_m, float)
-
-    # --- pixel-centre rays: geometry layers ----------------------------------------------
     n_out = outside_index(scene)
-    o_c, d_c, cols, rows = pixel_rays(cam, width, height, n_outside=n_out)
-    t_c, oid_c = cast_rays(surf, o_c, d_c)
-    p_c = o_c + np.where(np.isfinite(t_c), t_c, 0.0)[..., None] * d_c
-    range_m = np.where(oid_c > 0, np.linalg.norm(p_c - pupil, axis=-1), np.inf).astype(np.float32)
-
-    # --- surface samples (pixel_samples² per pixel) ------------------------------------
-    n = pixel_samples
-    g = (np.arange(n) + 0.5) / n
-    PX = ((np.arange(width)[:, None] + g[None, :]).ravel() / width)
-    PY = ((np.arange(height)[:, None] + g[None, :]).ravel() / height)
-    if n == 1:
-        o_s, d_s, t_s, oid_s = o_c, d_c, t_c, oid_c
-    else:
-        PXg, PYg = np.meshgrid(PX, PY)  # (H n, W n)
-        o_s, d_s = camera_rays(cam, PXg, PYg, n_outside=n_out)
-        t_s, oid_s = cast_rays(surf, o_s, d_s)
-    hit = oid_s > 0
-    ts = np.where(hit, t_s, 0.0)
-    p_s = o_s + ts[..., None] * d_s
-    normals = surf.normal if len(surf) else np.zeros((1, 3))  # a scene of open water only
-    nrm = np.where(hit[..., None], normals[np.maximum(oid_s - 1, 0)], 0.0)
-    nrm = np.where((np.sum(nrm * d_s, axis=-1) > 0)[..., None], -nrm, nrm)  # two-sided: face the camera
-    # work on the samples that hit a surface only
-    sample_shape = hit.shape
-    hidx = np.flatnonzero(hit)
-    p_s, nrm = p_s.reshape(-1, 3)[hidx], nrm.reshape(-1, 3)[hidx]
-    oid_s, ts = oid_s.ravel()[hidx], ts.ravel()[hidx]
-    hit = np.ones(len(hidx), bool)
-    rho_sub = surf.reflectance(lam.ravel()).reshape(len(surf) + 1, B, sub_bands)  # (S+1, B, n_sub)
-    rho_c = surf.reflectance(wl)  # (S+1, B)
-    tick(0.1, "geometry")
-
-    groups = {"continuous": [l for l in scene.lights if l.kind == "continuous"],
-              "strobe": [l for l in scene.lights if l.kind == "strobe"]}
-    shape = (height, width, B)
-    sshape = p_s.shape[:-1] + (B,)
-    results: dict[tuple[str, str], np.ndarray] = {}
     pitch = angular_pitch_rad(cam, width, height, n_outside=n_out)
     world_r = world_radius_m(scene)
     r_nodes = np.geomspace(0.05, world_r, 16)  # distances of the blurred-beam tables (m)
-    beam_cache: dict = {}
+    rho_sub = surf.reflectance(lam.ravel()).reshape(len(surf) + 1, B, sub_bands)  # (S+1, B, n_sub)
+    rho_c = surf.reflectance(wl)  # (S+1, B)
+    groups = {"continuous": [l for l in scene.lights if l.kind == "continuous"],
+              "strobe": [l for l in scene.lights if l.kind == "strobe"]}
+    lit = [l for l in scene.lights if np.any(np.asarray(l.axial_intensity, float) > 0)]
+    shape = (height, width, B)
+    results: dict[tuple[str, str], np.ndarray] = {}
 
-    for gi, (gname, lights) in enumerate(groups.items()):
-        has_day = gname == "continuous" and scene.daylight is not None and has_water
-        if not lights and not has_day:
-            continue
-        lights = [l for l in lights if np.any(np.asarray(l.axial_intensity, float) > 0)]
-        clear = np.zeros(sshape)
-        direct = np.zeros(sshape)
-        scattered = np.zeros(sshape)  # target lit by forward-scattered light, unscattered to the camera
-        tables = []
-        for light in lights:
-            lpos = np.asarray(light.position_m, float)
-            axis = unit(light.aim)
-            lwl, lval = np.asarray(light.wavelength_nm, float), np.asarray(light.axial_intensity, float)
-            v = p_s - lpos
-            r = np.linalg.norm(v, axis=-1)
-            vh = v / np.maximum(r, 1e-12)[..., None]
-            cos_i = np.clip(-np.sum(vh * nrm, axis=-1), 0.0, None) * hit
-            if shadows:
-                cos_i = cos_i * ~occluded(surf, p_s, lpos, exclude=oid_s)
-            theta = beam_angle(vh, axis)
-            f = light.beam.relative_intensity(theta)
-            geo = cos_i / (np.pi * np.maximum(r, 1e-9) ** 2)  # (h, w)
-            I_sub = np.interp(lam, lwl, lval)  # (B, n_sub)
-            I_c = np.interp(wl, lwl, lval)
-            # band averages of ρ I (clear) and of ρ I e^{−c L} on a table of path lengths L = r + s
-            clear += (geo * f)[..., None] * ((rho_sub * I_sub) @ lam_w)[oid_s]
-            if not has_water:
+    with no_hugepage_advice(), thread_map(threads) as pmap:
+        view = _view(scene, surf, width, height, pixel_samples, n_out, [l.position_m for l in lit], pmap)
+        tick(0.1, "geometry")
+        for gi, (gname, lights) in enumerate(groups.items()):
+            has_day = gname == "continuous" and scene.daylight is not None and has_water
+            if not lights and not has_day:
                 continue
-            path = r + ts
-            L_nodes = np.linspace(0.0, max(float(np.max(path[hit])) if hit.any() else 1.0, 1e-3) * 1.0001, 513)
-            tab = np.einsum("kbs,lbs->klb", rho_sub * (I_sub * lam_w),
-                            np.exp(-water.c_sub[None] * L_nodes[:, None, None]), optimize=True)  # (S+1, nL, B)
-            direct += (geo * f)[..., None] * _interp_table(tab, oid_s, path, L_nodes)
-            lt = LightTables(lpos, axis, light.beam.relative_intensity, I_c)
-            if forward:
-                if light.beam not in beam_cache:
-                    beam_cache[light.beam] = water.small_angle.blurred_beam(light.beam, r_nodes)
-                th_n, btab = beam_cache[light.beam]
-                lt = dataclasses.replace(lt, theta_nodes=th_n, r_nodes=r_nodes, blurred=btab)
-                fb = lt.blurred_at(theta, r)  # (h, w, B)
-                rr = r[..., None]
-                amp = np.exp(-water.c * rr) * np.expm1(water.b * water.F * rr)
-                scattered += geo[..., None] * fb * amp * (rho_c[oid_s] * I_c)
-            tables.append(lt)
-        ms = None
-        if multiple and has_water and lights and water.b.max() > 0:
-            from rigsim.preview.multiple import DEFAULT_GRID, DEFAULT_PHOTONS, trace_multiple
+            lights = [l for l in lights if np.any(np.asarray(l.axial_intensity, float) > 0)]
+            lamps, tables = [], []
+            for light in lights:
+                lamp = _lamp(light, lam, lam_w, wl, rho_sub, rho_c, water, forward, r_nodes,
+                             view.path_max[lit.index(light)])
+                lamps.append(lamp)
+                if lamp.light is not None:
+                    tables.append(lamp.light)
+            ms = None
+            if multiple and has_water and lights and water.b.max() > 0:
+                from rigsim.preview.multiple import DEFAULT_GRID, DEFAULT_PHOTONS, trace_multiple
 
-            kap = water.c - water.b * water.F if forward else water.c
-            ms = trace_multiple(scene, surf, lights, wl, c=water.c, b=water.b, kappa_cam=kap, tables=water.components,
-                                weights=water.components.weights_at(wl), width=width, height=height,
-                                cutoff_rad=cutoff, photons=photons or DEFAULT_PHOTONS, grid=ms_grid or DEFAULT_GRID,
-                                seed=0 if seed is None else int(seed))
-            if len(hidx):  # targets lit by the multiply scattered light
-                scattered += rho_c[oid_s] / np.pi * ms.irradiance_at(surf, oid_s, p_s)
-        if has_day:
-            # the target lit by the scene's daylight field (as the renderer: sun beam and diffuse
-            # field; no forward-scattered halo of it, the renderer's daylight transport has none)
-            day = scene_daylight(scene, req.band_lo_nm, req.band_hi_nm)
-            day_lit = rho_c[oid_s] / np.pi * _daylight_irradiance(day, p_s, nrm, wl)
-            clear += day_lit
-        clear = _pixel_mean(_expand(clear, sample_shape, hidx), n)
-        if not has_water:
-            results[(gname, "full")] = clear
-            results[(gname, "clear")] = clear
-            results[(gname, "direct")] = clear
-            results[(gname, "backscatter")] = np.zeros(shape)
-            continue
-        T = np.exp(-water.c * ts[..., None])
-        scattered *= T
-        fwd = np.zeros(shape)
-        if forward:
-            src = _pixel_mean(_expand((direct + scattered) * np.expm1(water.b * water.F * ts[..., None]),
-                                      sample_shape, hidx), n)
-            fwd = water.small_angle.blur_image(src, range_m.astype(float), pitch)
-        if has_day:
-            direct += day_lit * T
-        direct = _pixel_mean(_expand(direct, sample_shape, hidx), n)
-        scattered = _pixel_mean(_expand(scattered, sample_shape, hidx), n)
-        tick(0.3 + 0.3 * gi, f"{gname}: direct and forward")
-        back = np.zeros(shape)
-        if tables:
-            back += _backscatter(scene, surf, tables, water, forward, cam, width, height, t_c, cols, rows,
-                                 world_r, backscatter_grid, backscatter_nodes, shadows)
-        if ms is not None:
-            C_, R_ = np.meshgrid(cols, rows)
-            back += ms.veil_at(C_, R_, range_m.astype(float))
-        if has_day:
-            back += _daylight_path_radiance(day, o_c, d_c, t_c, wl)
-        tick(0.5 + 0.3 * gi, f"{gname}: backscatter")
-        results[(gname, "full")] = direct + scattered + fwd + back
-        results[(gname, "clear")] = clear
-        results[(gname, "direct")] = direct
-        results[(gname, "backscatter")] = back
+                kap = water.c - water.b * water.F if forward else water.c
+                ms = trace_multiple(scene, surf, lights, wl, c=water.c, b=water.b, kappa_cam=kap, tables=water.components,
+                                    weights=water.components.weights_at(wl), width=width, height=height,
+                                    cutoff_rad=cutoff, photons=photons or DEFAULT_PHOTONS, grid=ms_grid or DEFAULT_GRID,
+                                    seed=0 if seed is None else int(seed))
+            # the target lit by the scene's daylight field (as the renderer: sun beam and diffuse field; no
+            # forward-scattered halo of it, the renderer's daylight transport has none) and its path radiance
+            day = _Daylight(scene_daylight(scene, req.band_lo_nm, req.band_hi_nm), wl, surf) if has_day else None
+            grid = None
+            if tables:
+                grid = _backscatter_grid(scene, surf, tables, water, forward, cam, width, height, world_r,
+                                         backscatter_grid, backscatter_nodes, shadows, pmap)
+            group = _Group(view, surf, water, lamps, rho_c, forward, shadows, day, grid, ms,
+                           want=set(layers))
+            group.shade(pmap)
+            tick(0.3 + 0.3 * gi, f"{gname}: direct and backscatter")
+            if forward:
+                group.add_forward(water.small_angle, pitch, pmap)
+            tick(0.5 + 0.3 * gi, f"{gname}: forward")
+            for k, a in group.layers().items():
+                results[(gname, k)] = a
     zeros = np.zeros(shape, np.float32)
     out_layers: dict[str, np.ndarray] = {}
-    radiance = results.get(("continuous", "full"), zeros).astype(np.float32)
+    used: set[int] = set()
+
+    def own(a):  # one array per layer (the model gives no-water layers one array)
+        if id(a) in used:
+            a = a.copy()
+        used.add(id(a))
+        return a
+
+    radiance = own(results.get(("continuous", "full"), zeros))
     for gname, prefix in (("continuous", ""), ("strobe", "flash_")):
         if (gname, "full") not in results:
             continue
         if gname == "strobe":
-            out_layers["flash"] = results[(gname, "full")].astype(np.float32)
+            out_layers["flash"] = own(results[(gname, "full")])
         for k in ("clear", "direct", "backscatter"):
             if k in layers:
-                out_layers[f"{prefix}{k}"] = results[(gname, k)].astype(np.float32)
+                out_layers[f"{prefix}{k}"] = own(results[(gname, k)])
     if "range_m" in layers:
-        out_layers["range_m"] = range_m
+        out_layers["range_m"] = view.range_m
     if "object_id" in layers:
-        out_layers["object_id"] = oid_c.astype(np.int32)
+        out_layers["object_id"] = view.oid_c.astype(np.int32)
 
     meta = {
         "renderer": RENDERER_NAME,
@@ -404,7 +346,7 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
         "preview": {"forward_scatter": forward, "forward_cutoff_deg": float(forward_cutoff_deg),
                     "shadows": bool(shadows), "sub_bands": sub_bands, "pixel_samples": pixel_samples,
                     "backscatter_grid": backscatter_grid, "backscatter_nodes": backscatter_nodes,
-                    "ignored": {"spp": spp, "seed": seed, "max_depth": max_depth}},
+                    "threads": threads, "ignored": {"spp": spp, "seed": seed, "max_depth": max_depth}},
     }
     meta["scene_hash"] = hashlib.sha256(json.dumps(
         {k: meta[k] for k in ("water", "camera", "lights", "targets")}, sort_keys=True,
@@ -415,7 +357,408 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
                          scene=scene, render=RenderInfo("preview"))
 
 
-# ---------------------------------------------------------------------------------------
+# --- geometry ------------------------------------------------------------------------------
+@dataclasses.dataclass(eq=False)
+class _Hits:
+    """The samples of one tile that hit a surface: flat index in the tile's sample grid, point, normal
+    facing the camera (``side``: the surface's normal reversed), object id, ray length from the port."""
+
+    idx: np.ndarray
+    p: np.ndarray
+    nrm: np.ndarray
+    side: np.ndarray
+    oid: np.ndarray
+    ts: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.idx)
+
+    def subset(self, m: np.ndarray) -> "_Hits":
+        return _Hits(self.idx[m], self.p[m], self.nrm[m], self.side[m], self.oid[m], self.ts[m])
+
+
+@dataclasses.dataclass(eq=False)
+class _View:
+    """What the camera sees: pixel-centre hits (H, W), and per tile the hits of its samples."""
+
+    camera: object
+    n_out: float
+    width: int
+    height: int
+    n: int  # pixel_samples
+    tiles: list[tuple[int, int]]
+    t_c: np.ndarray
+    oid_c: np.ndarray
+    d_c: np.ndarray  # pixel-centre ray directions (H, W, 3) and the height of their origins (H, W)
+    oy_c: np.ndarray
+    range_m: np.ndarray
+    cols: np.ndarray
+    rows: np.ndarray
+    hits: list[_Hits]
+    path_max: list[float]  # per lit light: longest light → surface → port path over all samples (m)
+
+    def rays(self, y0: int, y1: int) -> tuple[np.ndarray, np.ndarray]:
+        """Pixel-centre rays (origin, direction) of rows y0 … y1 − 1: (rows, W, 3) each."""
+        X, Y = np.meshgrid(self.cols / self.width, self.rows[y0:y1] / self.height)
+        return camera_rays(self.camera, X, Y, n_outside=self.n_out)
+
+
+def _view(scene: Scene, surf: SceneSurfaces, width: int, height: int, n: int, n_out: float,
+          light_positions: list, pmap) -> _View:
+    cam = scene.camera
+    pupil = np.asarray(cam.position_m, float)
+    tiles = row_tiles(height, width * n * n)
+    cols = np.arange(width) + 0.5
+    rows = np.arange(height) + 0.5
+    g = (np.arange(n) + 0.5) / n
+    PX = ((np.arange(width)[:, None] + g[None, :]).ravel() / width)  # sample positions (pixel_samples > 1)
+    PY = ((np.arange(height)[:, None] + g[None, :]).ravel() / height)
+    t_c, oid_c = np.empty((height, width)), np.empty((height, width), np.int32)
+    d_c, oy_c = np.empty((height, width, 3)), np.empty((height, width))
+    range_m = np.empty((height, width), np.float32)
+    normals = surf.normal if len(surf) else np.zeros((1, 3))  # a scene of open water only
+    lpos = [np.asarray(x, float) for x in light_positions]
+    hits: list = [None] * len(tiles)
+    path_max = np.full((len(tiles), len(lpos)), -np.inf)
+
+    def tile(i):
+        y0, y1 = tiles[i]
+        o, d = view.rays(y0, y1)
+        t, oid = cast_rays(surf, o, d)
+        t_c[y0:y1], oid_c[y0:y1], d_c[y0:y1], oy_c[y0:y1] = t, oid, d, o[..., 1]
+        o, d, t, oid = o.reshape(-1, 3), d.reshape(-1, 3), t.ravel(), oid.ravel()
+        idx = np.flatnonzero(oid > 0)
+        r = np.full(len(t), np.inf, np.float32)
+        r[idx] = np.linalg.norm(o[idx] + t[idx, None] * d[idx] - pupil, axis=-1)
+        range_m[y0:y1] = r.reshape(y1 - y0, width)
+        if n > 1:
+            o, d = camera_rays(cam, *np.meshgrid(PX, PY[y0 * n:y1 * n]), n_outside=n_out)
+            t, oid = cast_rays(surf, o, d)
+            o, d, t, oid = o.reshape(-1, 3), d.reshape(-1, 3), t.ravel(), oid.ravel()
+            idx = np.flatnonzero(oid > 0)
+        ts, oid, d = t[idx], oid[idx], d[idx]
+        p = o[idx] + ts[:, None] * d
+        nrm = normals[oid - 1]
+        side = np.sum(nrm * d, axis=-1) > 0  # two-sided: face the camera
+        nrm = np.where(side[:, None], -nrm, nrm)
+        h = _Hits(idx, p, nrm, side, oid, ts)
+        hits[i] = h
+        if len(h):
+            for j, lp in enumerate(lpos):
+                path_max[i, j] = np.max(np.linalg.norm(h.p - lp, axis=-1) + h.ts)
+
+    view = _View(cam, n_out, width, height, n, tiles, t_c, oid_c, d_c, oy_c, range_m, cols, rows, hits, [])
+    run(pmap, tile, range(len(tiles)))
+    view.path_max = [float(m) if np.isfinite(m) else 1.0 for m in path_max.max(axis=0, initial=-np.inf)]
+    return view
+
+
+# --- lights --------------------------------------------------------------------------------
+@dataclasses.dataclass(frozen=True, eq=False)
+class _Lamp:
+    """One light as the per-pixel passes use it; the per-band tables in one dtype (:meth:`astype`).
+
+    ``rho_I`` (S+1, B): band average of ρ I (the clear view); ``tab`` (S+1, n_L, B): band average of
+    ρ I e^{−c L} at the path lengths ``L_nodes`` (light → surface → port); ``rho_Ic``: ρ I at the band
+    centres; ``light``: the integrals' view of the light (with the blurred beam if forward) — None
+    without water.
+    """
+
+    position: np.ndarray
+    axis: np.ndarray
+    beam: Callable
+    rho_I: np.ndarray
+    tab: np.ndarray | None = None
+    L_nodes: np.ndarray | None = None
+    rho_Ic: np.ndarray | None = None
+    light: LightTables | None = None
+
+    def astype(self, dt) -> "_Lamp":
+        def cast(a):
+            return None if a is None else a.astype(dt, copy=False)
+
+        lt = self.light
+        if lt is not None and lt.blurred is not None:
+            lt = dataclasses.replace(lt, blurred=cast(lt.blurred))
+        return dataclasses.replace(self, rho_I=cast(self.rho_I), tab=cast(self.tab), rho_Ic=cast(self.rho_Ic), light=lt)
+
+
+def _lamp(light, lam, lam_w, wl, rho_sub, rho_c, water: _Water | None, forward: bool, r_nodes: np.ndarray,
+          path_max: float) -> _Lamp:
+    lpos = np.asarray(light.position_m, float)
+    axis = unit(light.aim)
+    lwl, lval = np.asarray(light.wavelength_nm, float), np.asarray(light.axial_intensity, float)
+    I_sub = np.interp(lam, lwl, lval)  # (B, n_sub)
+    I_c = np.interp(wl, lwl, lval)
+    rho_I = (rho_sub * I_sub) @ lam_w
+    if water is None:
+        return _Lamp(lpos, axis, light.beam.relative_intensity, rho_I)
+    # band averages of ρ I e^{−c L} on a table of path lengths L = r + s
+    L_nodes = np.linspace(0.0, max(path_max, 1e-3) * 1.0001, 513)
+    tab = np.ascontiguousarray(np.einsum("kbs,lbs->klb", rho_sub * (I_sub * lam_w),
+                                         np.exp(-water.c_sub[None] * L_nodes[:, None, None]),
+                                         optimize=True))  # (S+1, nL, B)
+    lt = LightTables(lpos, axis, light.beam.relative_intensity, I_c)
+    if forward:
+        th_n, btab = water.small_angle.blurred_beam(light.beam, r_nodes)
+        lt = dataclasses.replace(lt, theta_nodes=th_n, r_nodes=r_nodes, blurred=btab)
+    return _Lamp(lpos, axis, light.beam.relative_intensity, rho_I, tab, L_nodes, rho_c * I_c, lt)
+
+
+# --- one light group: the per-pixel passes -------------------------------------------------
+@dataclasses.dataclass(frozen=True, eq=False)
+class _Bands:
+    """A group's per-band constants in one dtype."""
+
+    lamps: list
+    rho_c: np.ndarray
+    c: np.ndarray | None
+    bF: np.ndarray | None
+    kappa: np.ndarray | None
+
+
+class _Group:
+    """The image of one light group (continuous or strobe): shaded tile by tile into float32 layers.
+
+    ``full`` = direct + forward-lit target + backscatter (+ the forward blur, :meth:`add_forward`).
+    """
+
+    def __init__(self, view: _View, surf: SceneSurfaces, water: _Water | None, lamps: list[_Lamp], rho_c, forward,
+                 shadows, day: "_Daylight | None", grid: tuple | None, ms, *, want: set):
+        self.view, self.surf, self.water, self.shadows = view, surf, water, bool(shadows)
+        self.forward, self.day, self.grid, self.ms = forward, day, grid, ms
+        self.lamps64 = lamps
+        B = len(rho_c[0])
+        self.B = B
+        self.bands = {}
+        for dt in (_F32, _F64):
+            w = water
+            c = bF = kappa = None
+            if w is not None:
+                c, bF = w.c.astype(dt), (w.b * w.F).astype(dt)
+                kappa = (w.c - w.b * w.F).astype(dt)
+            self.bands[dt] = _Bands([l.astype(dt) for l in lamps], rho_c.astype(dt), c, bF, kappa)
+        self.rho_c = rho_c
+        if water is not None:
+            self.c_sub_max = float(np.max(water.c_sub))
+            self.bF_max = float(np.max(water.b * water.F))
+        H, W = view.height, view.width
+        shape = (H, W, B)
+        wet = water is not None
+        # layers that are zero off the targets start as zeros (untouched pages cost nothing): only the
+        # targets' pixels are written
+        self.full = np.empty(shape, np.float32) if wet else np.zeros(shape, np.float32)
+        self.clear = np.zeros(shape, np.float32) if ("clear" in want and wet) else None
+        self.direct = np.zeros(shape, np.float32) if ("direct" in want and wet) else None
+        self.back = np.empty(shape, np.float32) if ("backscatter" in want and wet) else None
+        # the forward blur's source, per tile: (flat pixel index, (N, B) values) of the pixels holding any
+        self.src = [None] * len(view.tiles) if forward and (lamps or ms is not None) else None
+
+    def layers(self) -> dict[str, np.ndarray]:
+        if self.water is None:  # the view without water: every layer is the clear view, no backscatter
+            zero = np.zeros_like(self.full)
+            return {"full": self.full, "clear": self.full, "direct": self.full, "backscatter": zero}
+        out = {"full": self.full}
+        for k, a in (("clear", self.clear), ("direct", self.direct), ("backscatter", self.back)):
+            if a is not None:
+                out[k] = a
+        return out
+
+    def shade(self, pmap) -> None:
+        run(pmap, self._shade_tile, range(len(self.view.tiles)))
+
+    def add_forward(self, small_angle: SmallAngle, pitch: tuple[float, float], pmap,
+                    bands_per_pass: int = 8) -> None:
+        """``full +=`` the forward blur of the source (the source itself if there is nothing to blur,
+        as :meth:`~rigsim.preview.forward.SmallAngle.blur_bands`), a few bands at a time."""
+        if self.src is None:
+            return
+        v, B, W = self.view, self.B, self.view.width
+        index = np.concatenate([t[0] for t in self.src])
+        values = np.concatenate([t[1] for t in self.src]) if len(index) else np.zeros((0, B), np.float32)
+        nonzero = np.zeros(v.height * W, bool)
+        nonzero[index] = True
+        nonzero = nonzero.reshape(v.height, W)
+        plan = small_angle.blur_plan(v.range_m.astype(float), pitch, nonzero)
+        if plan is None:  # nothing to blur: the source itself
+            self.full.reshape(-1, B)[index] += values
+            return
+
+        local = threading.local()
+
+        def image(b):  # this thread's image of band b (zero off the source's pixels, which never change)
+            img = getattr(local, "img", None)
+            if img is None:
+                img = local.img = np.zeros(v.height * W, np.float32)
+            img[index] = values[:, b]
+            return img.reshape(v.height, W)
+
+        buf = np.empty((min(B, bands_per_pass), v.height, W), np.float32)
+
+        def blur(job):
+            j, b = job
+            buf[j] = plan.blur(b, image(b))
+
+        def add(job):
+            i, b0, b1 = job
+            y0, y1 = v.tiles[i]
+            self.full[y0:y1, :, b0:b1] += np.moveaxis(buf[:b1 - b0, y0:y1], 0, -1)
+
+        for b0 in range(0, B, bands_per_pass):
+            b1 = min(B, b0 + bands_per_pass)
+            run(pmap, blur, enumerate(range(b0, b1)))
+            run(pmap, add, [(i, b0, b1) for i in range(len(v.tiles))])
+
+    # -- one tile
+    def _shade_tile(self, i: int) -> None:
+        v, B = self.view, self.B
+        y0, y1 = v.tiles[i]
+        hits = v.hits[i]
+        clear, direct, scattered, src = self._surface_terms(hits)
+        if self.water is None:
+            self._put(self.full[y0:y1], y0, y1, hits, clear)
+            return
+        full = self.full[y0:y1]
+        if self.back is not None:
+            back = self.back[y0:y1]
+            self._backscatter(y0, y1, back)
+            full[...] = back
+        else:
+            self._backscatter(y0, y1, full)
+        self._put(full, y0, y1, hits, direct + scattered, add=True)
+        if self.clear is not None:
+            self._put(self.clear[y0:y1], y0, y1, hits, clear)
+        if self.direct is not None:
+            self._put(self.direct[y0:y1], y0, y1, hits, direct)
+        if self.src is not None:
+            n, W = v.n, v.width
+            if n == 1:
+                self.src[i] = (y0 * W + hits.idx, src)
+            else:
+                px = _pixel_mean(_expand(src, ((y1 - y0) * n, W * n), hits.idx), n).reshape(-1, B)
+                nz = np.flatnonzero(np.any(px != 0, axis=-1))
+                self.src[i] = (y0 * W + nz, px[nz])
+
+    def _put(self, out: np.ndarray, y0: int, y1: int, hits: _Hits, a: np.ndarray, add: bool = False) -> None:
+        """Per-hit values ``a`` (N, B) → ``out`` (the tile's pixels, (rows, W, B), zero where no sample hits
+        unless ``add``): each pixel's mean over its samples, written (``add``: added)."""
+        v = self.view
+        if v.n == 1:
+            flat = out.reshape(-1, self.B)
+            if add:
+                flat[hits.idx] += a
+            else:
+                flat[hits.idx] = a
+            return
+        px = _pixel_mean(_expand(a, ((y1 - y0) * v.n, v.width * v.n), hits.idx), v.n)
+        if add:
+            out += px
+        else:
+            out[...] = px
+
+    def _surface_terms(self, hits: _Hits):
+        """(clear, direct, scattered, src) per hit sample, (N, B) float32: the clear view, the unscattered
+        image (with the daylight), the target lit by forward-scattered light (× e^{−c s}), the blur's source.
+
+        Float32 where every exponent is within ±:data:`F32_EXP_MAX`, the other samples in float64.
+        """
+        far = self._far(hits) if self.water is not None else None
+        if far is None or not far.any():
+            return self._terms(hits, _F32)
+        near_t, far_t = self._terms(hits.subset(~far), _F32), self._terms(hits.subset(far), _F64)
+        out = []
+        for a, b in zip(near_t, far_t):
+            if a is None:
+                out.append(None)
+                continue
+            m = np.empty((len(hits), self.B), np.float32)
+            m[~far], m[far] = a, b
+            out.append(m)
+        return tuple(out)
+
+    def _far(self, hits: _Hits) -> np.ndarray:
+        """Samples whose exponents may leave ±F32_EXP_MAX (c L on a light's path, b F s for the blur)."""
+        path = np.zeros(len(hits))
+        for lamp in self.lamps64:
+            path = np.maximum(path, np.linalg.norm(hits.p - lamp.position, axis=-1))
+        far = self.c_sub_max * (path + hits.ts) > F32_EXP_MAX
+        if self.forward:
+            far |= self.bF_max * hits.ts > F32_EXP_MAX
+        return far
+
+    def _terms(self, h: _Hits, dt):
+        K = self.bands[dt]
+        N, B = len(h), self.B
+        clear = np.zeros((N, B), dt)
+        direct = np.zeros((N, B), dt)
+        scattered = np.zeros((N, B), dt)  # target lit by forward-scattered light, unscattered to the camera
+        for lamp in K.lamps:
+            v = h.p - lamp.position
+            r = np.linalg.norm(v, axis=-1)
+            vh = v / np.maximum(r, 1e-12)[..., None]
+            cos_i = np.clip(-np.sum(vh * h.nrm, axis=-1), 0.0, None)
+            if self.shadows:
+                cos_i = cos_i * ~occluded(self.surf, h.p, lamp.position, exclude=h.oid)
+            theta = beam_angle(vh, lamp.axis)
+            f = lamp.beam(theta)
+            geo = cos_i / (np.pi * np.maximum(r, 1e-9) ** 2)  # (N,)
+            gf = (geo * f).astype(dt)[:, None]
+            clear += gf * lamp.rho_I[h.oid]
+            if lamp.tab is None:
+                continue
+            direct += gf * _interp_table(lamp.tab, h.oid, r + h.ts, lamp.L_nodes)
+            if self.forward:
+                fb = lamp.light.blurred_at(theta, r)  # (N, B)
+                rr = r.astype(dt)[:, None]
+                amp = np.exp(-K.kappa * rr) - np.exp(-K.c * rr)  # e^{−cr}(e^{bFr} − 1)
+                scattered += geo.astype(dt)[:, None] * fb * amp * lamp.rho_Ic[h.oid]
+        if self.ms is not None and N:  # targets lit by the multiply scattered light
+            scattered += (self.rho_c[h.oid] / np.pi * self.ms.irradiance_at(self.surf, h.oid, h.p)).astype(dt)
+        day_lit = None
+        if self.day is not None and N:
+            day_lit = K.rho_c[h.oid] / np.pi * self.day.irradiance(h, dt)
+            clear += day_lit
+        if self.water is None:
+            return clear, None, None, None
+        s = h.ts.astype(dt)[:, None]
+        T = np.exp(-K.c * s)
+        src = None
+        if self.forward:  # (direct + scattered)(e^{bFs} − 1), the scattered part as e^{−κs} − e^{−cs}
+            src = _times_expm1(direct, K.bF * s) + scattered * (np.exp(-K.kappa * s) - T)
+        scattered *= T
+        if day_lit is not None:
+            direct += day_lit * T
+        return clear, direct, scattered, src
+
+    def _backscatter(self, y0: int, y1: int, back: np.ndarray) -> None:
+        """``back`` (rows, W, B) = backscatter of the lights + multiply scattered veil + daylight path radiance."""
+        v = self.view
+        back[...] = 0.0
+        if self.grid is None and self.ms is None and self.day is None:
+            return
+        C_, R_ = np.meshgrid(v.cols, v.rows[y0:y1])
+        if self.grid is not None:
+            cum, shape, gcol, grow, s = self.grid
+            interpolate_cumulative(cum, shape, gcol, grow, s, C_, R_, v.t_c[y0:y1], out=back)
+        if self.ms is not None:
+            back += self.ms.veil_at(C_, R_, v.range_m[y0:y1].astype(float))
+        if self.day is not None:
+            back += self.day.path_radiance(v.oy_c[y0:y1], v.d_c[y0:y1], v.t_c[y0:y1])
+
+
+def _times_expm1(v: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """``v (e^x − 1)`` for ``v ≥ 0``: in float32 (for |x| ≤ F32_EXP_MAX) ``e^x − 1``, whose absolute error
+    ~6e-8 is relative to ``v``; in float64 ``expm1``, in log space where ``e^x`` would overflow."""
+    if x.dtype == _F32:
+        return v * (np.exp(x) - np.float32(1.0))
+    big = x > 700.0
+    out = v * np.expm1(np.minimum(x, 700.0))
+    if np.any(big):
+        with np.errstate(divide="ignore"):
+            out[big] = np.exp(np.log(v[big]) + x[big]) - v[big]
+    return out
+
+
 def _expand(a: np.ndarray, sample_shape: tuple, idx: np.ndarray) -> np.ndarray:
     """Scatter per-hit values (N, B) into an image of ``sample_shape + (B,)`` (zeros elsewhere)."""
     out = np.zeros((int(np.prod(sample_shape)), a.shape[-1]), a.dtype)
@@ -424,11 +767,13 @@ def _expand(a: np.ndarray, sample_shape: tuple, idx: np.ndarray) -> np.ndarray:
 
 
 def _interp_table(tab: np.ndarray, oid: np.ndarray, x: np.ndarray, nodes: np.ndarray) -> np.ndarray:
-    """``tab[oid, ·, :]`` read at ``x`` on the uniform ``nodes`` (linear): shape ``x.shape + (B,)``."""
+    """``tab[oid, ·, :]`` read at ``x`` on the uniform ``nodes`` (linear): shape ``x.shape + (B,)``, tab's dtype."""
     u = np.clip((x - nodes[0]) / (nodes[1] - nodes[0]), 0.0, len(nodes) - 1.000001)
     j = u.astype(np.int64)
-    fr = (u - j)[..., None]
-    return tab[oid, j] * (1 - fr) + tab[oid, j + 1] * fr
+    fr = (u - j)[..., None].astype(tab.dtype)
+    flat = tab.reshape(-1, tab.shape[-1])
+    k = oid * tab.shape[1] + j
+    return np.take(flat, k, axis=0) * (1 - fr) + np.take(flat, k + 1, axis=0) * fr
 
 
 def _pixel_mean(a: np.ndarray, n: int) -> np.ndarray:
@@ -438,55 +783,96 @@ def _pixel_mean(a: np.ndarray, n: int) -> np.ndarray:
     return a.reshape(H, n, W, n, *a.shape[2:]).mean(axis=(1, 3))
 
 
-def _backscatter(scene, surf, tables, water, forward, cam, width, height, t_c, cols, rows, world_r,
-                 grid, n_nodes, shadows) -> np.ndarray:
+def _backscatter_grid(scene, surf, tables, water, forward, cam, width, height, world_r, grid, n_nodes,
+                      shadows, pmap) -> tuple:
+    """The cumulative backscatter integral on the coarse grid of rays (every pixel if ``grid`` is None):
+    ``(cum float32, (rows, cols), grid cols, grid rows, s nodes)`` for :func:`interpolate_cumulative`."""
     kappa_cam = water.c - water.b * water.F if forward else water.c
     kappa_light = water.c - water.b * water.F if forward else water.c
     k_min = float(np.min(kappa_cam + kappa_light))
     s_max = world_r if k_min <= 0 else min(world_r, 50.0 / k_min)
     s, _ = s_nodes(s_max, n_nodes)
+    from rigsim.scene.optics import pixel_rays
+
     if grid is None:
         o, d, gcol, grow = pixel_rays(cam, width, height, n_outside=outside_index(scene))
     else:
         step = max(width, height) / float(grid)
         o, d, gcol, grow = pixel_rays(cam, width, height, n_outside=outside_index(scene), step=max(step, 1e-9))
-    cum = cumulative_backscatter(o.reshape(-1, 3), d.reshape(-1, 3), s, tables, bw=water.bw, c=water.c,
-                                 kappa_light=kappa_light, kappa_cam=kappa_cam,
-                                 components=water.components, forward=forward,
-                                 surfaces=surf if shadows else None)
-    C, R = np.meshgrid(cols, rows)
-    return interpolate_cumulative(cum, (len(grow), len(gcol)), gcol, grow, s, C, R, t_c)
+    o, d = o.reshape(-1, 3), d.reshape(-1, 3)
+    chunks = np.array_split(np.arange(len(o)), max(1, min(len(o) // 64, 8)))
+    cum = np.empty((len(o), len(s), len(water.c)), np.float32)
+
+    def chunk(ix):
+        cum[ix] = cumulative_backscatter(o[ix], d[ix], s, tables, bw=water.bw, c=water.c, kappa_light=kappa_light,
+                                         kappa_cam=kappa_cam, components=water.components, forward=forward,
+                                         surfaces=surf if shadows else None)
+
+    run(pmap, chunk, chunks)
+    return cum, (len(grow), len(gcol)), gcol, grow, s
 
 
 # --- daylight ------------------------------------------------------------------------------
-def _daylight_irradiance(day, p, nrm, wl) -> np.ndarray:
-    """Daylight irradiance (N, B) on surface samples at ``p`` with normals ``nrm`` (facing the camera).
+class _Daylight:
+    """The scene's daylight field (:mod:`rigsim.scene.daylight_field`) for the per-pixel passes."""
 
-    Sun beam × cos × the beam's height factor × caustics, plus the diffuse field integrated over
-    the hemisphere about the normal × its height factor (:mod:`rigsim.scene.daylight_field`;
-    unoccluded: no shadows or light from other targets).
-    """
-    idx = day.band_index(wl)
-    if p.shape[0] == 0:  # no surface in view
-        return np.zeros((0, len(idx)))
-    dy = (p[..., 1] - day.y0)[..., None]
-    sun = np.asarray(day.sun_direction, float)
-    cos_sun = np.clip(-(nrm @ sun), 0.0, None)
-    e_sun = (cos_sun * day.caustic(p))[..., None] * day.beam[idx] * height_factor(day.k_beam[idx], dy, np.exp)
-    # the diffuse field's irradiance per distinct normal (targets are flat pieces: few normals)
-    fld = day.field
-    dirs, dw = fld.bin_directions(4)
-    uniq, inv = np.unique(np.round(nrm, 9), axis=0, return_inverse=True)
-    cosw = np.stack([np.clip(dirs @ n, 0.0, None).sum(axis=-1) * dw for n in uniq])  # (U, nθ, nφ)
-    e_dif_u = np.einsum("btp,utp->ub", day.diffuse[idx], cosw)
-    e_dif = e_dif_u[np.asarray(inv).ravel()] * height_factor(day.k_diffuse[idx], dy, np.exp)
-    return e_sun + e_dif
+    def __init__(self, day: SceneDaylight, wl: np.ndarray, surf: SceneSurfaces):
+        self.day, self.wl = day, wl
+        idx = day.band_index(wl)
+        self.sun = np.asarray(day.sun_direction, float)
+        self.c, self.k = day.c[idx], day.k_diffuse[idx]
+        # the diffuse field's irradiance per distinct normal (targets are flat pieces: few normals), for
+        # each surface facing the camera with its normal (row 2k) or against it (row 2k + 1)
+        dirs, dw = day.field.bin_directions(4)
+        normals = surf.normal if len(surf) else np.zeros((0, 3))
+        sides = np.round(np.stack([normals, -normals], axis=1).reshape(-1, 3), 9)
+        uniq, inv = np.unique(sides, axis=0, return_inverse=True)
+        cosw = np.stack([np.clip(dirs @ n, 0.0, None).sum(axis=-1) * dw for n in uniq]) if len(uniq) else \
+            np.zeros((0,) + dirs.shape[:2])
+        e_dif = np.einsum("btp,utp->ub", day.diffuse[idx], cosw)[np.asarray(inv).ravel()]
+        self.t = {dt: dict(beam=day.beam[idx].astype(dt), k_beam=day.k_beam[idx].astype(dt),
+                           k_diffuse=self.k.astype(dt), c=self.c.astype(dt), e_dif=e_dif.astype(dt))
+                  for dt in (_F32, _F64)}
+        self.day32 = dataclasses.replace(day, diffuse=day.diffuse.astype(np.float32))
 
+    def irradiance(self, h: _Hits, dt) -> np.ndarray:
+        """Daylight irradiance (N, B) on surface samples (facing the camera).
 
-def _daylight_path_radiance(day, o, d, t_hit, wl) -> np.ndarray:
-    """Duntley's path radiance of the daylight field along each pixel ray (H, W, B), as the renderer's."""
-    idx = day.band_index(wl)
-    t = np.where(np.isfinite(t_hit), t_hit, np.inf)[..., None]
-    with np.errstate(over="ignore"):
-        return path_radiance(day.radiance(d, wl), day.c[idx], day.k_diffuse[idx], d[..., 1:2],
-                             (o[..., 1] - day.y0)[..., None], t, np.exp)
+        Sun beam × cos × the beam's height factor × caustics, plus the diffuse field integrated over
+        the hemisphere about the normal × its height factor (unoccluded: no shadows or light from other
+        targets).
+        """
+        t = self.t[dt]
+        dy = (h.p[..., 1] - self.day.y0).astype(dt)[..., None]
+        cos_sun = np.clip(-(h.nrm @ self.sun), 0.0, None)
+        e_sun = (cos_sun * self.day.caustic(h.p)).astype(dt)[..., None] * t["beam"] \
+            * height_factor(t["k_beam"], dy, np.exp)
+        e_dif = t["e_dif"][2 * (h.oid - 1) + h.side] * height_factor(t["k_diffuse"], dy, np.exp)
+        return e_sun + e_dif
+
+    def path_radiance(self, o_y: np.ndarray, d: np.ndarray, t_hit: np.ndarray) -> np.ndarray:
+        """Duntley's path radiance along each pixel ray (…, B) float32, as the renderer's.
+
+        Float32, except on lines of sight whose optical depth may be below F32_PATH_MIN in some band
+        (``1 − e^{−x}`` would lose its relative precision): float64 there.
+        """
+        t = np.where(np.isfinite(t_hit), t_hit, np.inf)[..., None]
+        vy, dy = d[..., 1:2], (o_y - self.day.y0)[..., None]
+        f = self.t[_F32]
+        look = self.day32.radiance(d, self.wl)
+        dy32 = dy.astype(np.float32)
+        # a line of sight that meets nothing sees all of the field at its origin's height (Duntley's law
+        # at t = ∞, exactly); the others in full
+        out = look * height_factor(f["k_diffuse"], dy32, np.exp)
+        hit = np.isfinite(t[..., 0])
+        if np.any(hit):
+            out[hit] = path_radiance(look[hit], f["c"], f["k_diffuse"], vy[hit].astype(np.float32), dy32[hit],
+                                     t[hit].astype(np.float32), np.exp)
+        # a lower bound of min over bands of (c − K v_y) t
+        x_lo = t[..., 0] * (self.c.min() - np.maximum(self.k.max() * vy[..., 0], self.k.min() * vy[..., 0]))
+        short = x_lo < F32_PATH_MIN
+        if np.any(short):
+            with np.errstate(over="ignore"):
+                out[short] = path_radiance(self.day.radiance(d[short], self.wl), self.c, self.k, vy[short],
+                                           dy[short], t[short], np.exp)
+        return out
