@@ -10,6 +10,11 @@ from pathlib import Path
 import numpy as np
 
 
+def cache_dir() -> Path:
+    """rigsim's cache folder: ``$RIGSIM_CACHE`` or ``~/.cache/rigsim`` (downloads, crash logs, probes)."""
+    return Path(os.environ.get("RIGSIM_CACHE") or Path.home() / ".cache" / "rigsim")
+
+
 def atomic_write_bytes(path: str | Path, data: bytes) -> None:
     """Write a file atomically (temporary file in the same folder, then rename)."""
     path = Path(path)
