@@ -100,6 +100,14 @@ def _q_table(components: PhaseTables, cutoff_rad: float) -> tuple[np.ndarray, np
     return per[key]
 
 
+
+def _log_abs_expm1(x: np.ndarray) -> np.ndarray:
+    """``log|exp(x) − 1|`` without overflow for large ``x`` (−inf at 0)."""
+    x = np.asarray(x, float)
+    big = x > 30.0
+    with np.errstate(divide="ignore", invalid="ignore", under="ignore"):
+        return np.where(big, x + np.log1p(-np.exp(-np.where(big, x, 30.0))), np.log(np.abs(np.expm1(np.where(big, 0.0, x)))))
+
 class SmallAngle:
     """Small-angle forward scattering for a set of bands (see module docstring).
 
@@ -140,8 +148,11 @@ class SmallAngle:
         q = self.q(nu) if q is None else q
         tf = tau * self.F
         small = tf < 1e-9
-        scale = np.where(small, 0.0, 1.0 / np.where(small, 1.0, np.expm1(tf)))
-        k = np.expm1(q * tau) * scale
+        # expm1(qτ) / expm1(τF), in logs so that turbid water (τF of hundreds) gives no inf/inf
+        qt = q * tau
+        with np.errstate(divide="ignore", over="ignore", invalid="ignore", under="ignore"):
+            k = np.sign(qt) * np.exp(_log_abs_expm1(qt) - _log_abs_expm1(np.where(small, 1.0, tf)))
+        k = np.where(small, 0.0, np.nan_to_num(k, nan=0.0))
         if np.any(small):  # τ → 0: K → Q/F (and 1 where there is no forward scattering at all)
             lim = np.where(self.F > 0, 1.0 / np.where(self.F > 0, self.F, 1.0), 0.0)
             k = np.where(small, np.where(self.F > 0, q * lim, 1.0), k)

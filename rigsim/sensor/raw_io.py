@@ -10,6 +10,7 @@ from __future__ import annotations
 import io
 import json
 import logging
+import os
 from pathlib import Path
 
 import numpy as np
@@ -111,7 +112,7 @@ def read_raw(path: str | Path) -> Capture:
     import rawpy
 
     path = Path(path)
-    if not path.is_file():
+    if not os.path.isfile(path):
         raise ConfigError("file not found", file=path, allowed=_RAW_ALLOWED)
     try:
         with rawpy.imread(str(path)) as r:
