@@ -36,7 +36,10 @@ import numpy as np
 from rigsim.dataset.spec import DatasetSpec
 from rigsim.fileio import atomic_write_bytes, atomic_write_text
 
-__all__ = ["run_dataset", "sample_dir"]
+__all__ = ["run_dataset", "sample_dir", "MAX_SAMPLES"]
+
+#: Most samples one dataset run may ask for.
+MAX_SAMPLES = 1_000_000
 
 
 def sample_dir(out: Path, index: int) -> Path:
@@ -122,10 +125,13 @@ def run_dataset(spec: DatasetSpec, n: int, out: str | Path, *, seed: int = 0, sc
     """
     from rigsim.parallel import run_tasks
 
-    if n < 1:
-        from rigsim.errors import ConfigError
+    from rigsim.errors import ConfigError
 
-        raise ConfigError(f"need at least one sample, got {n}", field="--n", allowed=">= 1")
+    if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= MAX_SAMPLES:
+        raise ConfigError(f"need 1 … {MAX_SAMPLES} samples, got {n}", field="--n", allowed=f"1 … {MAX_SAMPLES}")
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**63:
+        raise ConfigError(f"the dataset seed must be a whole number >= 0, got {seed}", field="--seed",
+                          allowed=f"0 … {2**63 - 1}")
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out / "dataset.json", json.dumps({"spec": spec.describe(), "seed": seed, "n": n}, indent=1))

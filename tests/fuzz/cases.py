@@ -701,7 +701,22 @@ def junk_values(ws_paths: dict[str, str]) -> st.SearchStrategy:
              "100000,100000", "client", "server", "coastal", "jerlov-II", "clear", "sony_ilce-7rm2", "colorchecker",
              "bottom", "white-disk", "sines", "pierson-moskowitz", "volpath", "1/125", "1/0.0", "\x1b[31m", "a\nb"]
     return st.one_of(st.sampled_from(fixed), st.sampled_from(sorted(ws_paths.values())), st.text(max_size=10),
-                     st.integers(-10**12, 10**12).map(str), st.floats().map(repr))
+                     st.integers(-10**12, 10**12).map(str), st.floats().map(repr), extreme_numbers())
+
+
+def extreme_numbers() -> st.SearchStrategy:
+    """Numbers as text that parse but ask for too much (or nothing): where limits are missed."""
+    return st.sampled_from(["0", "-1", "-5", "1", "2", "3", "7", "64", "1000", "65535", "65536", "100000", "2147483648",
+                            "4294967296", "1000000000000", "9223372036854775808", "1e6", "1e9", "1e12", "1e30",
+                            "1e-300", "0.0001", "-0.0", "nan", "inf", "-inf"])
+
+
+def _is_number(t: str) -> bool:
+    try:
+        float(t)
+    except ValueError:
+        return False
+    return True
 
 
 def command_skeletons(ws: Workspace) -> dict[str, list[str]]:
@@ -736,8 +751,8 @@ def command_skeletons(ws: Workspace) -> dict[str, list[str]]:
     }
 
 
-#: How often each command is drawn (the expensive ones rarely).
-COMMAND_WEIGHTS = {"render mitsuba": 0, "dataset": 1, "study": 3, "demo": 2, "ambient mc": 2}
+#: How often each command is drawn (the expensive ones less often).
+COMMAND_WEIGHTS = {"render mitsuba": 0, "dataset": 3, "study": 5, "demo": 2, "ambient mc": 5}
 
 
 @dataclasses.dataclass
@@ -765,11 +780,31 @@ def cli_cases(draw, names: tuple[str, ...] | None = None, weights: dict[str, int
                              max_size=6))
         return CliCase(name, argv, ["random argv"])
     for _ in range(draw(st.integers(0, 3))):
-        op = draw(st.sampled_from(["value", "value", "value", "drop", "unknown", "insert", "dup", "help", "root",
-                                   "eq"]))
+        op = draw(st.sampled_from(["value", "value", "value", "number", "number", "number", "drop", "unknown",
+                                   "insert", "dup", "help", "root", "eq", "parallel"]))
         opts = [i for i, t in enumerate(argv) if t.startswith("--") and i + 1 < len(argv)
                 and not argv[i + 1].startswith("--")]
-        if op == "value" and argv:
+        nums = [i + 1 for i in opts if _is_number(argv[i + 1]) or "," in argv[i + 1] or ":" in argv[i + 1]
+                or "x" in argv[i + 1]]
+        if op == "number" and nums:
+            i = draw(st.sampled_from(nums))
+            v = argv[i]
+            if "," in v or ":" in v or ("x" in v and not _is_number(v)):  # lists, ranges, sizes: one part
+                sep = "," if "," in v else ":" if ":" in v else "x"
+                parts = v.split(sep)
+                parts[draw(st.integers(0, len(parts) - 1))] = draw(extreme_numbers())
+                argv[i] = sep.join(parts)
+            else:
+                argv[i] = draw(extreme_numbers())
+            ops.append(f"number {argv[i - 1]} {argv[i]}")
+        elif op == "parallel" and "--serial" in argv:
+            argv.remove("--serial")
+            extra = draw(st.sampled_from([[], ["--workers", "1"], ["--workers", "0"], ["--workers", "-1"],
+                                          ["--workers", "100000"], ["--scheduler", "bogus"],
+                                          ["--scheduler", "tcp://127.0.0.1:9"], ["--scheduler", ""]]))
+            argv += extra
+            ops.append(f"parallel {extra}")
+        elif op == "value" and argv:
             cands = [i + 1 for i in opts] + [i for i, t in enumerate(argv) if not t.startswith("-")]
             i = draw(st.sampled_from(cands)) if cands else 0
             argv[i] = draw(junk_values(ws_paths))
@@ -849,8 +884,12 @@ def offline_stubs():
             raise ConfigError(f"unknown sample {name!r}", field="name", allowed=", ".join(samples.SAMPLE_RAWS))
         return samples.cache_dir() / "samples" / samples.SAMPLE_RAWS[name].filename
 
+    real_run_study = study.run_study
+
     def fake_run_study(spec, out, **kw):
-        raise _Stop()
+        if spec.name == "demo":
+            raise _Stop()
+        return real_run_study(spec, out, **kw)
 
     ui_app.main, samples.fetch_sample_raw, study.run_study = fake_main, fake_fetch, fake_run_study
     try:
@@ -868,20 +907,39 @@ def _stderr_lines(err: str) -> list[str]:
             and not re.match(r"^\s*(study|dataset|render)\b.*(━|ETA)", ln)]
 
 
-def classify_cli(code: int, out: str, err: str) -> tuple[str, str]:
+def _strip_debug_traces(err: str) -> str:
+    """``--log-level debug`` prints traces on purpose: keep what follows them."""
+    out, skipping = [], False
+    for ln in err.splitlines():
+        if ln.startswith("Traceback (most recent call last)"):
+            skipping = True
+            continue
+        if skipping and (ln.startswith(("  ", "During handling", "The above exception")) or not ln.strip()):
+            continue
+        if skipping:  # the exception line ends the trace
+            skipping = False
+            if re.match(r"^[\w.]+(Error|Exception|Interrupt|Exit|Abort|Failures|Problem|InUse|Interrupted)\b", ln):
+                continue
+        out.append(ln)
+    return "\n".join(out) + ("\n" if out else "")
+
+
+def classify_cli(code: int, out: str, err: str, *, debug: bool = False) -> tuple[str, str]:
     """The outcome of one command line from its exit status and output."""
+    if debug:
+        err = _strip_debug_traces(err)
     both = out + err
+    if "_Stop" in err:  # the demo stub: options accepted
+        return OK, "demo options accepted (study not run)"
     if "Traceback (most recent call last)" in both or "internal error in" in err:
         line = next((ln for ln in err.splitlines() if "internal error" in ln or "Error" in ln), err[-300:])
         return TRACEBACK, line[:400]
-    if "_Stop" in err:  # the demo stub: options accepted
-        return OK, "demo options accepted (study not run)"
     lines = _stderr_lines(err)
     if code == 0:
         return OK, (out.strip().splitlines() or [""])[-1][:200]
-    if code == 2 and any(ln.startswith("Error:") for ln in lines) and any(ln.startswith("Usage:") for ln in lines):
+    if code == 2 and any(ln.startswith("Error:") for ln in lines) and not any(ln.startswith("error:") for ln in lines):
         return USAGE, next(ln for ln in lines if ln.startswith("Error:"))[:200]
-    if code == 2 and lines and "Usage:" in err and not any(ln.startswith("error:") for ln in lines):
+    if code == 2 and "Usage:" in both and not any(ln.startswith("error:") for ln in lines):
         return USAGE, "help shown"
     if code in (1, 2, 3) and lines and lines[-1].startswith("error:"):
         errors = [ln for ln in lines if ln.startswith("error:")]
@@ -919,7 +977,9 @@ def run_cli_case(case: CliCase, ws: Workspace, *, timeout: float | None = 60.0) 
         argv = _materialize(case.argv, ws, d)
         with offline_stubs():
             code, out, err = cli(argv, cwd=d)
-        outcome, detail = classify_cli(code, out, err)
+        debug = any(a in ("--log-level=debug", "--log-level=DEBUG") for a in argv) or any(
+            a == "--log-level" and b.lower() == "debug" for a, b in zip(argv, argv[1:]))
+        outcome, detail = classify_cli(code, out, err, debug=debug)
         if outcome == OK:
             bad = _check_cli_outputs(case, argv, d)
             if bad:
@@ -1058,3 +1118,33 @@ def run_folder_case(case: FolderCase, ws: Workspace, *, timeout: float | None = 
         return guarded(f"folder:{case.kind}", go, timeout=timeout)
     finally:
         shutil.rmtree(d, ignore_errors=True)
+
+
+# ============================================================================ known hazards (regressions)
+
+#: Command lines that once ended in a traceback, a memory blow-up or a hang: each must now be
+#: refused in seconds with one line (found by this fuzzing; ``@…`` as in :func:`command_skeletons`).
+HAZARDS = [
+    ["render", str(ROOT / "rigs" / "twin-strobes-45-wide.toml"), "--water", "coastal", "--distance", "2",
+     "--size", "200000x200000", "--engine", "preview", "--out", "@OUT/r"],
+    ["render", str(ROOT / "rigs" / "twin-strobes-45-wide.toml"), "--water", "coastal", "--distance", "2",
+     "--size", "16000x16000", "--engine", "preview", "--out", "@OUT/r"],
+    ["render", str(ROOT / "rigs" / "twin-strobes-45-wide.toml"), "--water", "coastal", "--distance", "2",
+     "--wavelengths", "400:7e9:1e-9", "--engine", "preview", "--out", "@OUT/r"],
+    ["water", "show", "coastal", "--wavelengths", "400:inf:10"],
+    ["water", "plot", "coastal", "--out", "@OUT/w.3e16"],
+    ["ambient", "--water", "clear", "--sun-zenith", "30", "--depths", "1,2,3,4,5,6,7,8,9,10,11", "--photons",
+     "100000000", "--wavelengths", "450", "--json"],
+    ["dataset", str(ROOT / "tests" / "data" / "tiny-dataset.toml"), "--n", "1000000000000", "--out", "@OUT/ds",
+     "--serial"],
+    ["dataset", str(ROOT / "tests" / "data" / "tiny-dataset.toml"), "--n", "1", "--seed", "-5", "--out", "@OUT/ds",
+     "--serial"],
+    ["study", "@STUDYFILE", "--out", "@OUT/s", "--workers", "100000", "--no-report"],
+    ["study", "@STUDYFILE", "--out", "@OUT/s", "--scheduler", "bogus", "--no-report"],
+    ["capture", "@RENDER", "--sensor", "action_cam_1-2.3in", "--shutter", "1/125", "--iso", "2301685871418556",
+     "--out", "@OUT/c"],
+    ["render", "rigs/x.toml", "--bogus"],
+    ["render"],
+    ["water", "show"],
+    ["--log-level", "bogus", "water", "list"],
+]
