@@ -7,6 +7,7 @@ items whose ``is_done`` is true are skipped, which makes runs resumable.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 from collections.abc import Callable, Sequence
 from typing import Any
@@ -173,8 +174,9 @@ def _run_dask(todo, compute, finish, key, scheduler, workers, label) -> None:
         # the workers' own logs stay quiet (CRITICAL): a task's exception reaches us through its
         # future and is reported below; at shutdown a worker may still send a heartbeat to the
         # closed scheduler and log a traceback (seen once in ~10 demo runs) that means nothing
-        cluster = LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1, processes=True,
-                               dashboard_address=":0", silence_logs=logging.CRITICAL)
+        with _sigint_ignored():  # the worker processes inherit "ignore Ctrl-C": only this process stops them
+            cluster = LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1, processes=True,
+                                   dashboard_address=":0", silence_logs=logging.CRITICAL)
         client = Client(cluster)
     try:
         futures = {client.submit(compute, it, pure=False, key=f"{label}-{key(it)}"): it for it in todo}
@@ -182,6 +184,23 @@ def _run_dask(todo, compute, finish, key, scheduler, workers, label) -> None:
             finish(futures[fut], fut.result)
     finally:
         _close_quietly(client, cluster)
+
+
+@contextlib.contextmanager
+def _sigint_ignored():
+    """SIGINT ignored while child processes start (they keep ignoring it: a Ctrl-C in the terminal
+    reaches the whole process group, and the workers would print their own KeyboardInterrupt)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
 
 
 def _close_quietly(client, cluster) -> None:

@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from rigsim.dataset.spec import DatasetSpec
-from rigsim.fileio import atomic_write_bytes, atomic_write_text
+from rigsim.fileio import atomic_write_bytes, atomic_write_text, folder_lock, remove_stale_temp_files
 
 __all__ = ["run_dataset", "sample_dir", "MAX_SAMPLES"]
 
@@ -133,13 +133,17 @@ def run_dataset(spec: DatasetSpec, n: int, out: str | Path, *, seed: int = 0, sc
         raise ConfigError(f"the dataset seed must be a whole number >= 0, got {seed}", field="--seed",
                           allowed=f"0 … {2**63 - 1}")
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(out / "dataset.json", json.dumps({"spec": spec.describe(), "seed": seed, "n": n}, indent=1))
-    overrides = overrides or {}
-    items = [(spec, i, seed, overrides.get(i)) for i in range(n)]
-    run_tasks(items, _compute, lambda it, res: _store(out, it[1], res),
-              is_done=lambda it: (sample_dir(out, it[1]) / "record.json").is_file(),
-              key=lambda it: f"{it[1]:06d}", scheduler=scheduler, workers=workers, serial=serial,
-              progress=progress, label="dataset")
-    write_manifest(out, n)
+    with folder_lock(out):  # one run per dataset folder; released however this process ends
+        remove_stale_temp_files(out)  # what a killed run was writing
+        atomic_write_text(out / "dataset.json",
+                          json.dumps({"spec": spec.describe(), "seed": seed, "n": n}, indent=1))
+        overrides = overrides or {}
+        items = [(spec, i, seed, overrides.get(i)) for i in range(n)]
+        try:
+            run_tasks(items, _compute, lambda it, res: _store(out, it[1], res),
+                      is_done=lambda it: (sample_dir(out, it[1]) / "record.json").is_file(),
+                      key=lambda it: f"{it[1]:06d}", scheduler=scheduler, workers=workers, serial=serial,
+                      progress=progress, label="dataset")
+        finally:
+            write_manifest(out, n)  # the finished samples, also when interrupted or some failed
     return out
