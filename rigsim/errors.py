@@ -70,12 +70,15 @@ class OutputError(RigsimError, OSError):
 
     def __init__(self, path: str | Path, exc: BaseException | str):
         self.path = str(path)
-        if isinstance(exc, OSError):
+        if isinstance(exc, OutputError):
+            self.errno, what = exc.errno, exc.reason
+        elif isinstance(exc, OSError):
             self.errno = exc.errno
             what = exc.strerror or str(exc)
         else:
             self.errno = None
             what = str(exc)
+        self.reason = what
         RigsimError.__init__(self, f"{self.path}: cannot write: {what}")
 
     def __str__(self) -> str:

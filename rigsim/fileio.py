@@ -31,7 +31,8 @@ import numpy as np
 from rigsim.errors import FolderInUse, OutputError
 
 __all__ = ["cache_dir", "atomic_write_bytes", "atomic_write_text", "atomic_write_npz", "ensure_folder",
-           "staged_output", "folder_lock", "remove_stale_temp_files", "LOCK_NAME"]
+           "check_writable", "staged_output", "output_folder", "folder_lock", "remove_stale_temp_files",
+           "LOCK_NAME"]
 
 #: Name of the lock file in an output folder.
 LOCK_NAME = ".rigsim.lock"
@@ -57,6 +58,23 @@ def ensure_folder(path: str | Path) -> Path:
     if not p.is_dir():
         raise OutputError(p, "exists and is not a folder")
     return p
+
+
+def check_writable(folder: str | Path) -> Path:
+    """Create ``folder`` and write and remove a small file in it: an :class:`OutputError` now
+    (permissions, read-only or full disk) rather than after minutes of work."""
+    folder = ensure_folder(folder)
+    try:
+        fd, tmp = tempfile.mkstemp(dir=folder, prefix=".rigsim-write-check.", suffix=".tmp")
+        try:
+            os.write(fd, b"rigsim" * 170)
+            os.fsync(fd)
+        finally:
+            os.close(fd)
+            Path(tmp).unlink(missing_ok=True)
+    except OSError as exc:
+        raise OutputError(folder, exc) from exc
+    return folder
 
 
 def atomic_write_bytes(path: str | Path, data: bytes) -> None:
@@ -117,7 +135,12 @@ def staged_output(out: str | Path) -> Iterator[Path]:
     except OSError as exc:
         raise OutputError(out, exc) from exc
     try:
-        yield stage
+        try:
+            yield stage
+        except OutputError as exc:  # name the file where it was going, not the staging folder
+            if exc.path.startswith(str(stage) + os.sep):
+                raise OutputError(out / Path(exc.path).relative_to(stage), exc) from exc
+            raise
         names = sorted(p.name for p in stage.iterdir() if p.is_file() and not _STALE.match(p.name))
         for name in names:
             try:
@@ -126,6 +149,24 @@ def staged_output(out: str | Path) -> Iterator[Path]:
                 raise OutputError(out / name, exc) from exc
     finally:
         shutil.rmtree(stage, ignore_errors=True)
+
+
+@contextlib.contextmanager
+def output_folder(out: str | Path) -> Iterator[Path]:
+    """The output folder of a one-shot command (render, capture, develop), held for the block.
+
+    Checked writable before the work starts (:func:`check_writable`), locked
+    (:func:`folder_lock`), and removed again if the block fails and the folder did not exist before.
+    """
+    out = Path(out)
+    existed = out.exists()
+    try:
+        with folder_lock(check_writable(out)):
+            yield out
+    except BaseException:
+        if not existed:
+            shutil.rmtree(out, ignore_errors=True)
+        raise
 
 
 def remove_stale_temp_files(root: str | Path) -> int:

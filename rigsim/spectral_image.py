@@ -153,8 +153,9 @@ class SpectralImage:
 
         from rigsim.scene.record import scene_record
 
-        d = Path(directory)
-        d.mkdir(parents=True, exist_ok=True)
+        from rigsim.fileio import ensure_folder
+
+        d = ensure_folder(directory)
         arrays = {"radiance": np.asarray(self.radiance, np.float32),
                   "wavelength_nm": np.asarray(self.wavelength_nm, float),
                   "bandwidth_nm": np.asarray(self.bandwidth_nm, float)}

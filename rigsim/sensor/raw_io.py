@@ -173,8 +173,9 @@ def save_capture(cap: Capture, out_dir: str | Path, *, extra: dict | None = None
     import cv2
     import tifffile
 
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    from rigsim.fileio import ensure_folder
+
+    out = ensure_folder(out_dir)
     paths = {"dng": save_dng(cap, out / "raw.dng")} if dng else {}
     if cap.srgb is not None:
         ok, png = cv2.imencode(".png", np.ascontiguousarray(cap.srgb[..., ::-1]))

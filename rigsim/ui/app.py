@@ -44,7 +44,7 @@ from rigsim.ui.rigdoc import SPECTRA, RigDoc, parse_number
 
 log = logging.getLogger(__name__)
 
-__all__ = ["RigDesigner", "create_app", "main", "DEFAULT_RIG"]
+__all__ = ["RigDesigner", "create_app", "main", "check_options", "is_loopback", "DEFAULT_RIG"]
 
 #: The rig the designer opens with.
 DEFAULT_RIG = "twin-strobes-45-wide.toml"
@@ -924,9 +924,78 @@ def create_app(*, rigs_dir: str | Path | None = None, workdir: str | Path | None
     return RigDesigner(server, FileSandbox(folders), rig_path=rig_path, view=view)
 
 
+def is_loopback(host: str) -> bool:
+    """True if ``host`` is only reachable from this machine (127.0.0.0/8, ::1, localhost)."""
+    import ipaddress
+
+    h = str(host).strip().strip("[]")
+    if h.lower() == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(h).is_loopback
+    except ValueError:
+        return False
+
+
+def check_options(*, host: str = "127.0.0.1", port: int = 8080, workdir: str | Path | None = None,
+                  rig: str | Path | None = None) -> list[str]:
+    """Check the server's options before anything starts; the warnings to show (one line each).
+
+    Raises
+    ------
+    ConfigError
+        A port outside 1–65535, a host name that does not resolve, a missing --workdir.
+    """
+    import socket
+
+    if isinstance(port, bool) or not isinstance(port, int) or not 1 <= port <= 65535:
+        raise ConfigError(f"not a TCP port: {port!r}", field="--port", allowed="1 … 65535")
+    text = str(host).strip()
+    if not text or any(ord(c) < 32 for c in text) or len(text) > 253:
+        raise ConfigError(f"not a host address: {text[:60]!r}", field="--host",
+                          allowed="127.0.0.1 (default), 0.0.0.0 (every interface) or an address of this machine")
+    try:
+        socket.getaddrinfo(text.strip("[]"), port, type=socket.SOCK_STREAM)
+    except (OSError, UnicodeError, ValueError) as exc:
+        raise ConfigError(f"cannot listen on {text!r}: {exc}", field="--host",
+                          allowed="127.0.0.1 (default), 0.0.0.0 (every interface) or an address of this machine") from None
+    if workdir:
+        w = Path(workdir).expanduser()
+        if not w.is_dir():
+            raise ConfigError("the work folder does not exist", file=w, field="--workdir",
+                              allowed="an existing folder")
+    warnings_ = []
+    if not is_loopback(text):
+        warnings_.append(f"the rig designer listens on {text}:{port}, not only on this machine: anyone who can reach "
+                         "it there can open the designer and read and write rig files in rigs/ and --workdir "
+                         "(there is no login); the default --host 127.0.0.1 keeps it local")
+    return warnings_
+
+
 def main(*, host: str = "127.0.0.1", port: int = 8080, workdir: str | None = None, rigs_dir: str | None = None,
          rig: str | None = None, open_browser: bool = False, view: str = "server") -> None:
-    """Start the rig designer and serve it until interrupted."""
+    """Start the rig designer and serve it until interrupted.
+
+    Listens on 127.0.0.1 unless another ``host`` is asked for (then with a warning).  Before
+    anything starts: the options are checked (:func:`check_options`) and, for the server-drawn
+    3-D view, that off-screen OpenGL works (:func:`rigsim.environment.check_offscreen_gl`).
+    """
+    import socket
+    import sys
+
+    for w in check_options(host=host, port=port, workdir=workdir, rig=rig):
+        print(f"warning: {w}", file=sys.stderr, flush=True)
+    if view == "server":
+        from rigsim.environment import check_offscreen_gl
+
+        check_offscreen_gl()
+    try:  # a port in use: say so now, not as the web server's traceback
+        with socket.socket(socket.AF_INET6 if ":" in host.strip("[]") else socket.AF_INET) as probe:
+            probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            probe.bind((host.strip("[]"), port))
+    except OSError as exc:
+        raise ConfigError(f"cannot listen on {host}:{port}: {exc.strerror or exc}", field="--port",
+                          allowed="a free port (e.g. --port 8081)") from None
     app = create_app(rigs_dir=rigs_dir, workdir=workdir, rig=rig, view=view)
     print(f"rigsim rig designer: http://{host}:{port}/  (folders: {app.sandbox.describe()})", flush=True)
     app.server.start(host=host, port=port, open_browser=open_browser, show_connection_info=False,
