@@ -32,7 +32,7 @@ from rigsim.errors import FolderInUse, OutputError
 
 __all__ = ["cache_dir", "atomic_write_bytes", "atomic_write_text", "atomic_write_npz", "ensure_folder",
            "check_writable", "staged_output", "output_folder", "folder_lock", "remove_stale_temp_files",
-           "LOCK_NAME"]
+           "drop_unreadable_records", "LOCK_NAME"]
 
 #: Name of the lock file in an output folder.
 LOCK_NAME = ".rigsim.lock"
@@ -192,6 +192,31 @@ def remove_stale_temp_files(root: str | Path) -> int:
                 except OSError:
                     pass
     return n
+
+
+def drop_unreadable_records(root: str | Path, pattern: str, required: tuple[str, ...] = ()) -> list[Path]:
+    """Remove the per-item completion records below ``root`` (``cases/*/result.json``) that are not a
+    JSON object with the ``required`` keys, so that a resumed run computes those items again.
+
+    Atomic writes never leave such a file; a damaged disk or a hand edit can.  Call only while
+    holding :func:`folder_lock` of ``root``.  Returns the files removed.
+    """
+    import json
+
+    dropped = []
+    for f in sorted(Path(root).glob(pattern)):
+        try:
+            rec = json.loads(f.read_text(encoding="utf-8"))
+            ok = isinstance(rec, dict) and all(k in rec for k in required)
+        except (OSError, ValueError):
+            ok = False
+        if not ok:
+            try:
+                f.unlink()
+                dropped.append(f)
+            except OSError:
+                pass
+    return dropped
 
 
 def _holder(lock_file: Path) -> str:

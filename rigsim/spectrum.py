@@ -70,6 +70,8 @@ def parse_wavelength_range(text: str) -> np.ndarray:
             wl = np.array([float(p) for p in text.split(",") if p.strip()])
             if wl.size == 0:
                 raise ValueError
+    except ConfigError:
+        raise
     except (ValueError, OverflowError):
         raise ConfigError(f"cannot read wavelengths {text!r}", field="--wavelengths", allowed=allowed) from None
     return as_wavelengths(wl)

@@ -29,12 +29,16 @@ from __future__ import annotations
 import csv
 import io
 import json
+import logging
 from pathlib import Path
 
 import numpy as np
 
 from rigsim.dataset.spec import DatasetSpec
-from rigsim.fileio import atomic_write_bytes, atomic_write_text, folder_lock, remove_stale_temp_files
+from rigsim.fileio import (atomic_write_bytes, atomic_write_text, drop_unreadable_records, folder_lock,
+                           remove_stale_temp_files)
+
+log = logging.getLogger(__name__)
 
 __all__ = ["run_dataset", "sample_dir", "MAX_SAMPLES"]
 
@@ -135,6 +139,8 @@ def run_dataset(spec: DatasetSpec, n: int, out: str | Path, *, seed: int = 0, sc
     out = Path(out)
     with folder_lock(out):  # one run per dataset folder; released however this process ends
         remove_stale_temp_files(out)  # what a killed run was writing
+        for f in drop_unreadable_records(out, "samples/*/record.json", ("index", "water", "objects")):
+            log.warning("%s was damaged: computing that sample again", f)
         atomic_write_text(out / "dataset.json",
                           json.dumps({"spec": spec.describe(), "seed": seed, "n": n}, indent=1))
         overrides = overrides or {}

@@ -24,7 +24,8 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from rigsim.fileio import atomic_write_bytes, atomic_write_text, folder_lock, remove_stale_temp_files
+from rigsim.fileio import (atomic_write_bytes, atomic_write_text, drop_unreadable_records, folder_lock,
+                           remove_stale_temp_files)
 from rigsim.study.spec import Case, StudySpec
 
 log = logging.getLogger(__name__)
@@ -94,6 +95,8 @@ def run_study(spec: StudySpec, out: str | Path, *, scheduler: str | None = None,
     out = Path(out)
     with folder_lock(out):  # one run per study folder; released however this process ends
         remove_stale_temp_files(out)  # what a killed run was writing
+        for f in drop_unreadable_records(out, "cases/*/result.json", ("rows",)):
+            log.warning("%s was damaged: computing that case again", f)
         atomic_write_text(out / "study.json", json.dumps(spec.describe(), indent=1, default=str))
         try:
             run_tasks([(spec, c) for c in spec.cases()], _run_one, lambda it, res: _store(out, spec, it[1], res),

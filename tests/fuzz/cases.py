@@ -408,10 +408,10 @@ class Workspace:
 
     @functools.cached_property
     def raw_file(self) -> Path:
-        """A DNG written by ``rigsim capture`` of :attr:`render_dir`."""
+        """A DNG written by ``rigsim capture`` of :attr:`render_dir` (64×96 pixels)."""
         d = self.root / "capture"
         code, out, err = cli(["capture", str(self.render_dir), "--sensor", "sony_ilce-7rm2", "--auto-exposure",
-                              "--out", str(d)])
+                              "--shape", "64,96", "--out", str(d)])  # LibRaw refuses a very small mosaic
         assert code == 0, err
         return d / "raw.dng"
 
