@@ -719,8 +719,8 @@ def _is_number(t: str) -> bool:
     return True
 
 
-def command_skeletons(ws: Workspace) -> dict[str, list[str]]:
-    """A valid, cheap command line per command (the cases mutate them)."""
+def command_skeletons(ws: Workspace | None = None) -> dict[str, list[str]]:
+    """A valid, cheap command line per command (the cases mutate them; ``@…`` are filled in per case)."""
     rig = str(ROOT / "rigs" / "twin-strobes-45-wide.toml")
     return {
         "water show": ["water", "show", "coastal", "--wavelengths", "400:700:50", "--json"],
@@ -769,7 +769,7 @@ class CliCase:
 def cli_cases(draw, names: tuple[str, ...] | None = None, weights: dict[str, int] | None = None) -> CliCase:
     ws_paths = {"@BINARY": "@BINARY", "@FOLDER": "@FOLDER", "@EMPTY": "@EMPTY", "@RENDER": "@RENDER",
                 "@RAW": "@RAW", "@NOPE": "@NOPE", "@STUDY": "@STUDY"}
-    skel = command_skeletons(None)  # type: ignore[arg-type]
+    skel = command_skeletons()
     weights = {**COMMAND_WEIGHTS, **(weights or {})}
     pool = [n for n in (names or tuple(skel)) for _ in range(weights.get(n, 5))]
     name = draw(st.sampled_from(pool))

@@ -13,7 +13,7 @@ from hypothesis import given, settings
 from tests.fuzz.cases import (BUGS, HAZARDS, CliCase, _materialize, classify_cli, cli, cli_cases, command_skeletons,
                               run_cli_case)
 
-CHEAP = tuple(n for n in command_skeletons(None) if n not in ("render mitsuba", "dataset", "demo", "ambient mc"))
+CHEAP = tuple(n for n in command_skeletons() if n not in ("render mitsuba", "dataset", "demo", "ambient mc"))
 
 
 @settings(settings.get_profile("rigsim-fuzz"), max_examples=120)
@@ -45,5 +45,5 @@ def test_hazards_are_refused_in_seconds(argv, ws, tmp_path):
 def test_skeletons_are_valid(ws):
     """Every unmutated command line works (else the fuzzing would only ever test refusals)."""
     for name in CHEAP:
-        res = run_cli_case(CliCase(name, command_skeletons(None)[name], []), ws)
+        res = run_cli_case(CliCase(name, command_skeletons()[name], []), ws)
         assert res.outcome == "ok", (name, res.outcome, res.detail)

@@ -66,3 +66,16 @@ def test_file_damage_found_by_fuzzing(ws, tmp_path):
         assert res.outcome == "refused", (c.ops, res.outcome, res.detail)
         if c.ops == ["huge grid"]:
             assert "wavelengths" in res.detail and "10000" in res.detail, res.detail
+
+
+def test_turbid_water_previews_are_finite(ws):
+    """Found by the fuzzing: large particles at 100 ppm and more (c ≈ 30 /m) made the fast engine's
+    forward-scattering kernel inf/inf = NaN (expm1 overflow)."""
+    from tests.fuzz.cases import ConfigCase
+
+    for conc in (100, 1000, 1e6):
+        res = run_config_case(ConfigCase("water", f"[water]\nlargePartConc = {conc}\n".encode(), ["turbid"]), ws)
+        assert res.outcome == "ok", (conc, res.outcome, res.detail)
+    res = run_config_case(ConfigCase("water", b"[water]\na_per_m = 1e4\nb_per_m = 1e4\nphase = 'hg:0.9'\n",
+                                     ["iops"]), ws)
+    assert res.outcome == "ok", res.detail

@@ -65,6 +65,24 @@ def run_to_end(job: Job, out: Path, timeout: float = 1800) -> tuple[float, subpr
     return time.perf_counter() - t0, r
 
 
+def timed_run(job: Job, out: Path, timeout: float = 1800) -> tuple[float, float, subprocess.CompletedProcess]:
+    """Run to the end, watching the folder: (seconds to the first finished item, seconds in all, result)."""
+    t0 = time.perf_counter()
+    with open(out.parent / f"{out.name}.stderr", "w+") as fh:
+        p = subprocess.Popen(job.command(out), stdout=subprocess.DEVNULL, stderr=fh, cwd=ROOT, env=_env())
+        first = None
+        while p.poll() is None:
+            if first is None and any(out.glob(job.items)):
+                first = time.perf_counter() - t0
+            if time.perf_counter() - t0 > timeout:
+                p.kill()
+            time.sleep(0.05)
+        total = time.perf_counter() - t0
+        fh.seek(0)
+        err = fh.read()
+    return (first if first is not None else total), total, subprocess.CompletedProcess(p.args, p.returncode, "", err)
+
+
 def _strip_times(node):
     if isinstance(node, dict):
         return {k: _strip_times(v) for k, v in node.items() if "wall_time" not in k and k != "seconds"}
@@ -170,24 +188,27 @@ def kill_and_resume(job: Job, work: Path, *, kills: int, seed: int = 0, ref: Pat
     """Run ``job`` uninterrupted (unless ``ref`` is given); then start it and SIGKILL it ``kills`` times at
     random moments, each run resuming the folder the last one left.
 
-    A kill moment is uniform in ``[0.05, 1] ×`` the expected length of the run (the uninterrupted
-    run's, scaled by the share of items still to do, never below 40 %).  When a run ends before its
-    moment the folder is complete: it is compared with the uninterrupted run and a new folder is
-    started, so that every kill hits a run with work left.  The last folder is finished by a run
-    that is not killed and compared too.
+    A kill moment is uniform in ``[0.05, 1] ×`` the expected length of the run: the uninterrupted
+    run's start-up (time to its first finished item) plus its time per item × the items still to
+    do.  When a run ends before its moment the folder is complete: it is compared with the
+    uninterrupted run and a new folder is started, so that every kill hits a run with work left.
+    The last folder is finished by a run that is not killed and compared too.
     """
     rng = random.Random(seed)
     t_start = time.perf_counter()
     work.mkdir(parents=True, exist_ok=True)
+    startup = None
     if ref is None:
         ref = work / f"{job.name}-uninterrupted"
         shutil.rmtree(ref, ignore_errors=True)
-        ref_seconds, r = run_to_end(job, ref)
+        startup, ref_seconds, r = timed_run(job, ref)
         if r.returncode != 0:
             raise RuntimeError(f"the uninterrupted {job.name} run failed: {r.stderr[-1000:]}")
-        log(f"{job.name}: uninterrupted run {ref_seconds:.1f} s")
+        log(f"{job.name}: uninterrupted run {ref_seconds:.1f} s (first item after {startup:.1f} s)")
     ref_seconds = ref_seconds or 10.0
+    startup = ref_seconds * 0.3 if startup is None else startup
     total = len(list(ref.glob(job.items)))
+    per_item = max(ref_seconds - startup, 0.1) / max(total, 1)
     finished, integrity, diffs, leftovers, rcs = [], [], [], [], []
     early, rounds, stderr = 0, 0, ""
 
@@ -206,7 +227,9 @@ def kill_and_resume(job: Job, work: Path, *, kills: int, seed: int = 0, ref: Pat
     k = 0
     while k < kills:
         left = total - len(list(out.glob(job.items)))
-        delay = rng.uniform(0.05, 1.0) * ref_seconds * max(0.4, left / max(total, 1))
+        # a moment in the expected length of this run: start-up (imports, cluster, kernel compilation)
+        # plus the items still to do
+        delay = rng.uniform(0.05, 1.0) * (startup + per_item * left)
         err_file = work / f"{job.name}-stderr.txt"
         with open(err_file, "w") as fh:
             p = subprocess.Popen(job.command(out), stdout=subprocess.DEVNULL, stderr=fh, cwd=ROOT, env=_env(),

@@ -29,12 +29,18 @@ def _interrupt_after(cmd, out: Path, items: str, n: int, timeout=300):
     return p.returncode, o, e, time.time() - t1
 
 
-@pytest.mark.parametrize("serial", [False, True], ids=["dask", "serial"])
-def test_ctrl_c_stops_a_study_with_one_line_and_it_resumes(tmp_path, serial):
-    job = study_job(serial=serial)
-    ref = tmp_path / "ref"
-    r = subprocess.run(job.command(ref), cwd=ROOT, capture_output=True, text=True, timeout=600)
+@pytest.fixture(scope="module")
+def ref(tmp_path_factory):
+    """An uninterrupted run (serial: the same tables as with dask)."""
+    out = tmp_path_factory.mktemp("sigint") / "ref"
+    r = subprocess.run(study_job(serial=True).command(out), cwd=ROOT, capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr
+    return out
+
+
+@pytest.mark.parametrize("serial", [False, True], ids=["dask", "serial"])
+def test_ctrl_c_stops_a_study_with_one_line_and_it_resumes(tmp_path, serial, ref):
+    job = study_job(serial=serial)
     out = tmp_path / "interrupted"
     code, o, e, took = _interrupt_after(job.command(out), out, job.items, 2)
     assert code == 130, e
