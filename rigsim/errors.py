@@ -1,7 +1,8 @@
 """Errors that reach users as one clear line, never as a deep traceback.
 
 Every error names *where* (file and field when there is one), *what* was wrong
-and *what is allowed*.  The CLI prints ``str(error)`` and exits with status 2.
+and *what is allowed*.  The CLI prints ``str(error)`` and exits with the error's
+:attr:`~RigsimError.exit_code` (2 for a user's mistake).
 """
 
 from __future__ import annotations
@@ -13,6 +14,9 @@ from pathlib import Path
 
 class RigsimError(Exception):
     """Base class of all errors rigsim raises on purpose."""
+
+    #: Exit status of the command line for this error.
+    exit_code = 2
 
 
 class ConfigError(RigsimError, ValueError):
@@ -53,6 +57,50 @@ class SpectrumRangeError(ConfigError):
 
 class DataError(RigsimError):
     """A data file shipped with rigsim is missing or malformed."""
+
+
+class OutputError(RigsimError, OSError):
+    """An output file or folder cannot be written (permissions, disk full, read-only file system).
+
+    Also an :class:`OSError`, so code that handles I/O errors keeps working.  The files of
+    the operation that failed are removed: nothing half-written is left behind.
+    """
+
+    exit_code = 1
+
+    def __init__(self, path: str | Path, exc: BaseException | str):
+        self.path = str(path)
+        if isinstance(exc, OutputError):
+            self.errno, what = exc.errno, exc.reason
+        elif isinstance(exc, OSError):
+            self.errno = exc.errno
+            what = exc.strerror or str(exc)
+        else:
+            self.errno = None
+            what = str(exc)
+        self.reason = what
+        RigsimError.__init__(self, f"{self.path}: cannot write: {what}")
+
+    def __str__(self) -> str:
+        return self.args[0]
+
+
+class EnvironmentProblem(RigsimError):
+    """The machine lacks something rigsim needs (a usable libLLVM, EGL/OpenGL); says what to install."""
+
+    exit_code = 3
+
+
+class FolderInUse(RigsimError):
+    """Another rigsim run holds the lock of an output folder."""
+
+    exit_code = 3
+
+
+class Interrupted(RigsimError):
+    """A run was stopped (Ctrl-C, SIGTERM); what is finished is kept and the run can be resumed."""
+
+    exit_code = 130
 
 
 def unknown_name_error(kind: str, name: str, known: Iterable[str], *,

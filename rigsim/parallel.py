@@ -7,15 +7,21 @@ items whose ``is_done`` is true are skipped, which makes runs resumable.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 from collections.abc import Callable, Sequence
 from typing import Any
 
-from rigsim.errors import RigsimError
+from rigsim.errors import ConfigError, Interrupted, RigsimError
 
 log = logging.getLogger(__name__)
 
-__all__ = ["run_tasks", "default_workers"]
+__all__ = ["run_tasks", "default_workers", "check_workers", "connect_scheduler"]
+
+#: Seconds to wait for a dask scheduler given by address before giving up.
+CONNECT_TIMEOUT_S = 10
+#: Memory one worker process of the embedded cluster needs at least (bytes; rigsim + Mitsuba loaded).
+WORKER_MEMORY_BYTES = 400 << 20
 
 
 def default_workers() -> int:
@@ -28,6 +34,37 @@ def default_workers() -> int:
     import os
 
     return 2 if (os.cpu_count() or 1) >= 2 else 1
+
+
+def check_workers(workers: int | None) -> int | None:
+    """``workers`` if it is a usable number of worker processes (1 … 4 × cores, and fits in memory)."""
+    import os
+
+    if workers is None:
+        return None
+    hi = max(8, 4 * (os.cpu_count() or 1))
+    if isinstance(workers, bool) or not isinstance(workers, int) or not 1 <= workers <= hi:
+        raise ConfigError(f"cannot start {workers} worker processes", field="--workers",
+                          allowed=f"1 … {hi} (4 per core on this machine)")
+    from rigsim.resources import check_memory
+
+    check_memory(workers * WORKER_MEMORY_BYTES, f"{workers} worker processes", field="--workers")
+    return workers
+
+
+def connect_scheduler(address: str):
+    """A dask ``Client`` of the scheduler at ``address``, or a one-line error saying why not."""
+    from dask.distributed import Client
+
+    text = str(address).strip()
+    if not text:
+        raise ConfigError("no scheduler address given", field="--scheduler", allowed="tcp://HOST:PORT")
+    try:
+        return Client(text, timeout=CONNECT_TIMEOUT_S)
+    except Exception as exc:  # noqa: BLE001 - bad address, refused, unreachable, timed out: all one line
+        why = " ".join(str(exc).split()) or type(exc).__name__
+        raise ConfigError(f"cannot connect to the dask scheduler at {text!r}: {why}", field="--scheduler",
+                          allowed="the address a running `dask scheduler` prints, e.g. tcp://10.0.0.5:8786") from None
 
 
 def _progress(label: str, total: int, done: int, enabled: bool):
@@ -80,13 +117,21 @@ def run_tasks(items: Sequence[Any], compute: Callable[[Any], Any], store: Callab
     TaskFailures
         After every other item has been computed and stored, if some items raised: their
         keys and errors (the stored results are kept; running again retries only those).
+    Interrupted
+        On Ctrl-C (KeyboardInterrupt): every item finished before it is stored; running
+        again computes only the others.
+    ConfigError
+        ``workers`` out of range or more than the memory allows; a scheduler that cannot be
+        reached (within :data:`CONNECT_TIMEOUT_S`).
     """
+    workers = check_workers(workers)
     todo = [it for it in items if not is_done(it)]
     done0 = len(items) - len(todo)
     if done0:
         log.info("resuming: %d of %d %s already finished", done0, len(items), label)
     prog, task = _progress(label, len(items), done0, progress)
     failures: list[tuple[str, BaseException]] = []
+    stored = [0]
 
     def finish(it, get_result):
         try:
@@ -96,39 +141,87 @@ def run_tasks(items: Sequence[Any], compute: Callable[[Any], Any], store: Callab
             log.error("%s %s failed: %s", label, key(it), exc)
         else:
             store(it, res)
+            stored[0] += 1
             if on_done:
                 on_done(it)
         prog.advance(task)
 
-    with prog:
-        if serial or not todo:
-            for it in todo:
-                finish(it, lambda it=it: compute(it))
-            _raise_failures(failures, label, len(todo))
-            return len(todo)
-        from dask.distributed import Client, LocalCluster, as_completed
+    def interrupted() -> Interrupted:
+        n_done = done0 + stored[0]
+        return Interrupted(f"{n_done} of {len(items)} {label} items are finished and kept")
 
-        logging.getLogger("distributed").setLevel(logging.ERROR)
-        cluster = None
-        if scheduler:
-            client = Client(scheduler)
-        else:
-            # the workers' own logs stay quiet (CRITICAL): a task's exception reaches us through its
-            # future and is reported below; at shutdown a worker may still send a heartbeat to the
-            # closed scheduler and log a traceback (seen once in ~10 demo runs) that means nothing
-            cluster = LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1, processes=True,
-                                   dashboard_address=":0", silence_logs=logging.CRITICAL)
-            client = Client(cluster)
-        try:
-            futures = {client.submit(compute, it, pure=False, key=f"{label}-{key(it)}"): it for it in todo}
-            for fut in as_completed(futures):
-                finish(futures[fut], fut.result)
-        finally:
-            client.close()
-            if cluster is not None:
-                cluster.close()
+    try:
+        with prog:
+            if serial or not todo:
+                for it in todo:
+                    finish(it, lambda it=it: compute(it))
+            else:
+                _run_dask(todo, compute, finish, key, scheduler, workers, label)
+    except KeyboardInterrupt:
+        raise interrupted() from None
     _raise_failures(failures, label, len(todo))
     return len(todo)
+
+
+def _run_dask(todo, compute, finish, key, scheduler, workers, label) -> None:
+    from dask.distributed import Client, LocalCluster, as_completed
+
+    logging.getLogger("distributed").setLevel(logging.ERROR)
+    cluster = None
+    if scheduler:
+        client = connect_scheduler(scheduler)
+    else:
+        # the workers' own logs stay quiet (CRITICAL): a task's exception reaches us through its
+        # future and is reported below; at shutdown a worker may still send a heartbeat to the
+        # closed scheduler and log a traceback (seen once in ~10 demo runs) that means nothing
+        with _sigint_ignored():  # the worker processes inherit "ignore Ctrl-C": only this process stops them
+            cluster = LocalCluster(n_workers=workers or default_workers(), threads_per_worker=1, processes=True,
+                                   dashboard_address=":0", silence_logs=logging.CRITICAL)
+        client = Client(cluster)
+    try:
+        futures = {client.submit(compute, it, pure=False, key=f"{label}-{key(it)}"): it for it in todo}
+        for fut in as_completed(futures):
+            finish(futures[fut], fut.result)
+    finally:
+        _close_quietly(client, cluster)
+
+
+@contextlib.contextmanager
+def _sigint_ignored():
+    """SIGINT ignored while child processes start (they keep ignoring it: a Ctrl-C in the terminal
+    reaches the whole process group, and the workers would print their own KeyboardInterrupt)."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, old)
+
+
+def _close_quietly(client, cluster) -> None:
+    """Close the client and the embedded cluster; a second Ctrl-C while closing is ignored."""
+    import signal
+    import threading
+
+    old = None
+    if threading.current_thread() is threading.main_thread():
+        old = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        try:
+            client.close()
+        finally:
+            if cluster is not None:
+                cluster.close()
+    except Exception as exc:  # noqa: BLE001 - closing must not hide what happened before
+        log.debug("closing the dask cluster: %s", exc)
+    finally:
+        if old is not None:
+            signal.signal(signal.SIGINT, old)
 
 
 class TaskFailures(RigsimError):

@@ -37,6 +37,7 @@ import dataclasses
 import functools
 import math
 import numbers
+import os
 import re
 import tomllib
 import types
@@ -354,6 +355,9 @@ def toml_from_text(text: str, *, source: str | Path = "<text>") -> dict[str, Any
                           allowed="a UTF-8 TOML text file")
     try:
         return tomllib.loads(text)
+    except RecursionError:
+        raise ConfigError("malformed TOML: arrays or tables nested too deeply", file=source,
+                          allowed="a TOML file nested a few levels deep") from None
     except tomllib.TOMLDecodeError as exc:
         detail = " ".join(str(exc).split())
         m = _TOML_POS.match(detail)
@@ -372,9 +376,9 @@ def read_toml(path: str | Path) -> dict[str, Any]:
         UTF-8, or malformed TOML (with line and column).
     """
     p = Path(path)
-    if not p.exists():
+    if not os.path.exists(p):
         raise ConfigError("file not found", file=p, allowed="an existing TOML file")
-    if not p.is_file():
+    if not os.path.isfile(p):
         raise ConfigError("not a file", file=p, allowed="a TOML file")
     try:
         raw = p.read_bytes()
@@ -411,6 +415,8 @@ def validate(schema: type[M], data: Any, *, file: str | Path | None = None, pref
         return schema.model_validate(data, context=context)  # type: ignore[attr-defined]
     except ValidationError as exc:
         raise config_error(exc, schema, file=file, prefix=prefix) from None
+    except RecursionError:
+        raise ConfigError("values nested too deeply", file=file, field=prefix or None) from None
 
 
 def load_file(schema: type[M], path: str | Path, *, context: dict | None = None) -> M:

@@ -16,6 +16,8 @@ JSON-ready description for people and reports.  :meth:`SpectralImage.save` write
 from __future__ import annotations
 
 import json
+import zipfile
+import zlib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -151,8 +153,9 @@ class SpectralImage:
 
         from rigsim.scene.record import scene_record
 
-        d = Path(directory)
-        d.mkdir(parents=True, exist_ok=True)
+        from rigsim.fileio import ensure_folder
+
+        d = ensure_folder(directory)
         arrays = {"radiance": np.asarray(self.radiance, np.float32),
                   "wavelength_nm": np.asarray(self.wavelength_nm, float),
                   "bandwidth_nm": np.asarray(self.bandwidth_nm, float)}
@@ -167,32 +170,87 @@ class SpectralImage:
 
     @classmethod
     def load(cls, directory: str | Path) -> "SpectralImage":
-        """Read a SpectralImage written by :meth:`save`."""
+        """Read a SpectralImage written by :meth:`save`.
+
+        Raises
+        ------
+        ConfigError
+            One line naming the file: no ``spectral.npz``, a truncated or corrupt file, arrays
+            of the wrong shape, radiance that is not finite or negative, unreadable JSON.
+        """
         d = Path(directory)
         f = d / "spectral.npz"
+        allowed = "a directory written by `rigsim render`"
         if not f.is_file():
-            raise ConfigError("no spectral.npz here (not a render directory)", file=d,
-                              allowed="a directory written by `rigsim render`")
-        with np.load(f) as z:
-            layers = {k[6:]: z[k] for k in z.files if k.startswith("layer_")}
-            radiance, wl, bw = z["radiance"], z["wavelength_nm"], z["bandwidth_nm"]
+            raise ConfigError("no spectral.npz here (not a render directory)", file=d, allowed=allowed)
+        try:
+            with np.load(f, allow_pickle=False) as z:
+                missing = [k for k in ("radiance", "wavelength_nm", "bandwidth_nm") if k not in z.files]
+                if missing:
+                    raise ConfigError(f"corrupt: no {', '.join(missing)} array", file=f, allowed=allowed)
+                layers = {k[6:]: z[k] for k in z.files if k.startswith("layer_")}
+                radiance, wl, bw = z["radiance"], z["wavelength_nm"], z["bandwidth_nm"]
+        except ConfigError:
+            raise
+        except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile, zlib.error) as exc:
+            raise ConfigError(f"cannot read ({_reason(exc)}); truncated or not written by rigsim", file=f,
+                              allowed=allowed) from None
+        radiance = np.asarray(radiance)
+        wl, bw = np.asarray(wl), np.asarray(bw)
+        if (radiance.ndim != 3 or wl.ndim != 1 or bw.shape != wl.shape or radiance.shape[2] != wl.size
+                or not np.issubdtype(radiance.dtype, np.floating) or not np.issubdtype(wl.dtype, np.number)):
+            raise ConfigError(f"corrupt: radiance {radiance.shape} and {wl.size} wavelengths do not match", file=f,
+                              allowed=allowed)
+        for name, arr in (("radiance", radiance), *((f"layer {k}", v) for k, v in layers.items()
+                                                     if k in SPECTRAL_LAYERS or k.startswith("flash"))):
+            a = np.asarray(arr)
+            if a.shape[:2] != radiance.shape[:2]:
+                raise ConfigError(f"corrupt: {name} has shape {a.shape}, the image {radiance.shape[:2]}", file=f,
+                                  allowed=allowed)
+            if not np.issubdtype(a.dtype, np.number) or not np.all(np.isfinite(a)) or np.any(a < 0):
+                raise ConfigError(f"corrupt: {name} has values that are not finite or negative", file=f,
+                                  allowed="radiance >= 0 everywhere")
+        if not (np.all(np.isfinite(wl)) and np.all(np.diff(wl) > 0) and np.all(bw > 0)):
+            raise ConfigError("corrupt: wavelengths must increase and bandwidths be positive", file=f,
+                              allowed=allowed)
+        unknown = [k for k in layers if k not in LAYER_DOCS]
+        if unknown:
+            raise ConfigError(f"unknown layer {unknown[0]!r}", file=f, allowed=", ".join(LAYER_DOCS))
         meta = {}
         if (d / "meta.json").is_file():
-            meta = json.loads((d / "meta.json").read_text())
+            meta = _read_json(d / "meta.json")
+            if not isinstance(meta, dict):
+                raise ConfigError("must hold a JSON object", file=d / "meta.json")
         scene, render = None, None
         if (d / "scene.json").is_file():
             from rigsim.scene.record import scene_from_record
 
+            prov = _read_json(d / "scene.json")
+            if not isinstance(prov, dict):
+                raise ConfigError("must hold a JSON object", file=d / "scene.json")
             try:
-                prov = json.loads((d / "scene.json").read_text())
-            except (ValueError, UnicodeDecodeError) as exc:
-                raise ConfigError(f"cannot read scene.json: {exc}", file=d / "scene.json") from None
-            if prov.get("scene") is not None:
-                scene = scene_from_record(prov["scene"])
-            if prov.get("render") is not None:
-                render = RenderInfo(**prov["render"])
+                if prov.get("scene") is not None:
+                    scene = scene_from_record(prov["scene"])
+                if prov.get("render") is not None:
+                    render = RenderInfo(**prov["render"])
+            except ConfigError as exc:
+                raise ConfigError(f"corrupt: {exc}", file=d / "scene.json") from None
+            except (TypeError, ValueError, KeyError, AttributeError, IndexError) as exc:
+                raise ConfigError(f"corrupt: {_reason(exc)}", file=d / "scene.json") from None
         return cls(radiance=radiance, wavelength_nm=wl, bandwidth_nm=bw, layers=layers, meta=meta, scene=scene,
                    render=render)
+
+
+def _reason(exc: BaseException) -> str:
+    text = " ".join(str(exc).split())
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+def _read_json(path: Path):
+    try:
+        return json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError, UnicodeDecodeError) as exc:
+        raise ConfigError(f"cannot read ({_reason(exc)})", file=path) from None
 
 
 def _json_default(o):

@@ -19,6 +19,10 @@ DEFAULT_WAVELENGTHS_NM = np.arange(400.0, 701.0, 10.0)
 MITSUBA_WAVELENGTH_RANGE_NM = (360.0, 830.0)
 
 
+#: Most wavelengths a grid may have (a 1 nm grid over 300–2500 nm has 2201).
+MAX_WAVELENGTHS = 10000
+
+
 def as_wavelengths(wavelength_nm) -> np.ndarray:
     """Return wavelengths (nm) as a float array, checking they are finite and positive.
 
@@ -33,6 +37,9 @@ def as_wavelengths(wavelength_nm) -> np.ndarray:
                           allowed="numbers in nm, or START:STOP:STEP") from None
     if not np.all(np.isfinite(wl)) or np.any(wl <= 0):
         raise ConfigError("wavelengths must be finite and > 0 nm", field="wavelength_nm")
+    if wl.size > MAX_WAVELENGTHS:
+        raise ConfigError(f"{wl.size} wavelengths, more than {MAX_WAVELENGTHS}", field="wavelength_nm",
+                          allowed=f"at most {MAX_WAVELENGTHS} wavelengths")
     return wl
 
 
@@ -47,21 +54,26 @@ def parse_wavelength_range(text: str) -> np.ndarray:
     [532.0]
     """
     text = text.strip()
+    allowed = "START:STOP:STEP in nm (e.g. 400:700:10) or a comma list"
     try:
         if ":" in text:
             parts = [float(p) for p in text.split(":")]
-            if len(parts) != 3 or parts[2] <= 0 or parts[1] < parts[0]:
+            if len(parts) != 3 or not all(np.isfinite(parts)) or parts[2] <= 0 or parts[1] < parts[0]:
                 raise ValueError
             start, stop, step = parts
             n = int(np.floor((stop - start) / step + 1e-9)) + 1
+            if n > MAX_WAVELENGTHS:
+                raise ConfigError(f"{text!r} gives {n:.3g} wavelengths, more than {MAX_WAVELENGTHS}",
+                                  field="--wavelengths", allowed=f"{allowed}; at most {MAX_WAVELENGTHS} wavelengths")
             wl = start + step * np.arange(n)
         else:
             wl = np.array([float(p) for p in text.split(",") if p.strip()])
             if wl.size == 0:
                 raise ValueError
-    except ValueError:
-        raise ConfigError(f"cannot read wavelengths {text!r}", field="--wavelengths",
-                          allowed="START:STOP:STEP in nm (e.g. 400:700:10) or a comma list") from None
+    except ConfigError:
+        raise
+    except (ValueError, OverflowError):
+        raise ConfigError(f"cannot read wavelengths {text!r}", field="--wavelengths", allowed=allowed) from None
     return as_wavelengths(wl)
 
 

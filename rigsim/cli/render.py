@@ -51,15 +51,11 @@ def render_cmd(
 ):
     """Render what the rig sees: DIR/spectral.exr (+ spectral.npz with every layer), preview.png,
     ground-truth layers (range_m.exr, object_id.png, clear.png) and meta.json."""
-    import numpy as np
-    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
-
     from rigsim.config.rig import load_rig
     from rigsim.config.water import load_water
     from rigsim.errors import ConfigError
-    from rigsim.fileio import atomic_write_bytes, atomic_write_text
+    from rigsim.fileio import output_folder
     from rigsim.scene.build import build_scene
-    from rigsim.spectral_image import srgb_preview
     from rigsim.spectrum import parse_wavelength_range
 
     width, height = _parse_size(size)
@@ -74,6 +70,19 @@ def render_cmd(
 
         daylight = daylight_from_options(depth, sun_zenith_deg=sun_zenith, model=daylight_model, waves=waves)
     scene = build_scene(load_rig(rig), load_water(water), target, distance, size_m=target_size, daylight=daylight)
+    with output_folder(out):  # a folder that cannot be written fails now, not after the render
+        _render_into(out, scene, rig=rig, water=water, distance=distance, target=target, width=width,
+                     height=height, spp=spp, noise_target=noise_target, max_spp=max_spp, seed=seed, wl=wl,
+                     split=split, engine=engine, integrator=integrator, daylight=daylight, depth=depth,
+                     sun_zenith=sun_zenith, daylight_model=daylight_model)
+
+
+def _render_into(out: Path, scene, *, rig, water, distance, target, width, height, spp, noise_target, max_spp,
+                 seed, wl, split, engine, integrator, daylight, depth, sun_zenith, daylight_model) -> None:
+    from rich.progress import BarColumn, Progress, TextColumn, TimeRemainingColumn
+
+    from rigsim.fileio import staged_output
+
     layers = ("range_m", "clear", "object_id")
     if engine == "preview":
         from rigsim.preview import render_preview
@@ -88,11 +97,26 @@ def render_cmd(
             si = render(scene, width=width, height=height, spp=spp, seed=seed, wavelengths_nm=wl, layers=layers,
                         split=split, integrator=integrator, noise_target=noise_target, max_spp=max_spp,
                         progress=lambda f, msg: prog.update(task, completed=f, description=msg))
-    out.mkdir(parents=True, exist_ok=True)
+    with staged_output(out) as stage:  # every output or none (a full disk leaves the folder as it was)
+        _write_outputs(stage, si, scene, rig=rig, water=water, distance=distance, target=target, width=width,
+                       height=height, spp=spp, noise_target=noise_target, max_spp=max_spp, seed=seed, wl=wl,
+                       split=split, engine=engine, integrator=integrator, depth=depth, sun_zenith=sun_zenith,
+                       daylight_model=daylight_model)
+    typer.echo(f"wrote {out.resolve()} (wall time {si.meta.get('wall_time_s', 0):.1f} s)")
+
+
+def _write_outputs(out: Path, si, scene, *, rig, water, distance, target, width, height, spp, noise_target,
+                   max_spp, seed, wl, split, engine, integrator, depth, sun_zenith, daylight_model) -> None:
+    import io
+
+    import imageio.v3 as iio
+    import numpy as np
+
+    from rigsim.fileio import atomic_write_bytes, atomic_write_text
+    from rigsim.spectral_image import srgb_preview
+
     si.save(out)  # spectral.npz (radiance + every layer) and meta.json
     _write_exr(out / "spectral.exr", si)
-    import imageio.v3 as iio
-    import io
 
     def png(arr) -> bytes:
         buf = io.BytesIO()
@@ -124,7 +148,6 @@ def render_cmd(
                                      "J/(m2 sr nm) per flash",
                      "spectral.npz": "SpectralImage.load(): radiance, every layer, wavelengths", **layer_files}
     atomic_write_text(out / "meta.json", json.dumps(meta, indent=2, default=str))
-    typer.echo(f"wrote {out.resolve()} (wall time {si.meta.get('wall_time_s', 0):.1f} s)")
 
 
 def _write_exr(path: Path, si, *, single=None, name: str = "Y") -> None:
@@ -147,6 +170,13 @@ def _write_exr(path: Path, si, *, single=None, name: str = "Y") -> None:
         arr = np.concatenate(parts, axis=-1)
     bmp = mi.Bitmap(np.ascontiguousarray(arr, np.float32), channel_names=names)
     tmp = path.with_suffix(".tmp.exr")
-    bmp.write(str(tmp))
-    atomic_write_bytes(path, tmp.read_bytes())
-    tmp.unlink()
+    try:
+        bmp.write(str(tmp))
+        data = tmp.read_bytes()
+    except Exception as exc:  # noqa: BLE001 - Mitsuba reports a full disk as RuntimeError
+        from rigsim.errors import OutputError
+
+        raise OutputError(path, exc if isinstance(exc, OSError) else " ".join(str(exc).split())) from exc
+    finally:
+        tmp.unlink(missing_ok=True)
+    atomic_write_bytes(path, data)

@@ -86,6 +86,8 @@ def capture_cmd(
     from rigsim.sensor import capture
     from rigsim.spectral_image import SpectralImage
 
+    from rigsim.fileio import output_folder, staged_output
+
     s = load_sensor(sensor)
     si = SpectralImage.load(render_dir)
     from rigsim.sensor.optics import lens_for
@@ -108,7 +110,8 @@ def capture_cmd(
     opts = _develop_options(wb, wb_box, wb_gains, demosaic, gain)
     cap = capture(si, s, exposure, seed=seed, fpn_seed=fpn_seed, noise=NoiseSwitches.parse(noise),
                   shape=shp, develop=opts)
-    paths = save_capture(cap, out, extra={"render_dir": str(render_dir)})
+    with output_folder(out), staged_output(out) as stage:  # every output or none
+        paths = save_capture(cap, stage, extra={"render_dir": str(render_dir)})
     typer.echo(f"{s.name}: t={exposure.exposure_time_s:.4g} s, ISO {exposure.iso:g}, f/{lens.f_number:g}; "
                f"wrote {', '.join(p.name for p in paths.values())} to {out}")
 
@@ -128,7 +131,10 @@ def develop_cmd(
 
     cap = develop(read_raw(photo), _develop_options(wb, wb_box, wb_gains, demosaic, gain))
     out = out or Path(f"{photo.stem}_developed")
-    paths = save_capture(cap, out, dng=False)
+    from rigsim.fileio import output_folder, staged_output
+
+    with output_folder(out), staged_output(out) as stage:  # every output or none
+        paths = save_capture(cap, stage, dng=False)
     typer.echo(f"{cap.camera}: wrote {', '.join(p.name for p in paths.values())} to {out}")
 
 

@@ -56,8 +56,16 @@ def plot(
     out: Path = typer.Option(..., "--out", help="Output image (PNG, SVG, PDF)."),
 ):
     """Draw a, b, c spectra and the VSFs on log axes beside Petzold's measured VSFs."""
+    from matplotlib.backend_bases import FigureCanvasBase
+
+    from rigsim.errors import ConfigError
     from rigsim.report.water_plot import plot_waters
 
+    kinds = sorted(FigureCanvasBase.get_supported_filetypes())
+    suffix = out.suffix.lower().lstrip(".")
+    if suffix not in kinds:
+        raise ConfigError(f"cannot write a figure as {out.suffix or 'a file without a suffix'!r}", file=out,
+                          field="--out", allowed="a file name ending in ." + ", .".join(kinds))
     path = plot_waters([load_water(w) for w in waters], out)
     typer.echo(f"wrote {path}")
 

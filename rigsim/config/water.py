@@ -36,6 +36,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import numbers
+import os
 from pathlib import Path
 from typing import Annotated, Any, ClassVar
 
@@ -221,8 +222,8 @@ def phase_from_spec(spec: str, *, b: Spectrum1D, file=None, base_dir: Path | Non
     path = Path(spec)
     if base_dir is not None and not path.is_absolute():
         path = base_dir / path
-    if path.suffix.lower() == ".csv" or path.exists():
-        if not path.is_file():
+    if path.suffix.lower() == ".csv" or os.path.exists(path):
+        if not os.path.isfile(path):
             raise ConfigError(f"phase table {path} not found", file=file, field=field)
         return tabulated_from_csv(path)
     raise ConfigError(f"unknown phase function {spec!r}", file=file, field=field,
@@ -237,7 +238,7 @@ def _spectrum_value(v: float | str, key: str, *, file, base_dir: Path | None) ->
     path = Path(v)
     if base_dir is not None and not path.is_absolute():
         path = base_dir / path
-    if not path.is_file():
+    if not os.path.isfile(path):
         raise ConfigError(f"CSV file {path} not found", file=file, field=field)
     try:
         t = read_csv_table(path)
@@ -329,7 +330,7 @@ def load_water(spec: str | Path, **overrides: float | None) -> Water:
             raise ConfigError(f"unknown override {k!r}", allowed=", ".join(_CONSTITUENT_KEYS))
     s = str(spec)
     path = Path(s)
-    if s.endswith(".toml") or path.is_file():
+    if s.endswith(".toml") or os.path.isfile(path):
         doc = read_toml(path)
         table = doc.get("water")
         if overrides and isinstance(table, dict):

@@ -29,14 +29,21 @@ from __future__ import annotations
 import csv
 import io
 import json
+import logging
 from pathlib import Path
 
 import numpy as np
 
 from rigsim.dataset.spec import DatasetSpec
-from rigsim.fileio import atomic_write_bytes, atomic_write_text
+from rigsim.fileio import (atomic_write_bytes, atomic_write_text, drop_unreadable_records, folder_lock,
+                           remove_stale_temp_files)
 
-__all__ = ["run_dataset", "sample_dir"]
+log = logging.getLogger(__name__)
+
+__all__ = ["run_dataset", "sample_dir", "MAX_SAMPLES"]
+
+#: Most samples one dataset run may ask for.
+MAX_SAMPLES = 1_000_000
 
 
 def sample_dir(out: Path, index: int) -> Path:
@@ -122,18 +129,27 @@ def run_dataset(spec: DatasetSpec, n: int, out: str | Path, *, seed: int = 0, sc
     """
     from rigsim.parallel import run_tasks
 
-    if n < 1:
-        from rigsim.errors import ConfigError
+    from rigsim.errors import ConfigError
 
-        raise ConfigError(f"need at least one sample, got {n}", field="--n", allowed=">= 1")
+    if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= MAX_SAMPLES:
+        raise ConfigError(f"need 1 … {MAX_SAMPLES} samples, got {n}", field="--n", allowed=f"1 … {MAX_SAMPLES}")
+    if isinstance(seed, bool) or not isinstance(seed, int) or not 0 <= seed < 2**63:
+        raise ConfigError(f"the dataset seed must be a whole number >= 0, got {seed}", field="--seed",
+                          allowed=f"0 … {2**63 - 1}")
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(out / "dataset.json", json.dumps({"spec": spec.describe(), "seed": seed, "n": n}, indent=1))
-    overrides = overrides or {}
-    items = [(spec, i, seed, overrides.get(i)) for i in range(n)]
-    run_tasks(items, _compute, lambda it, res: _store(out, it[1], res),
-              is_done=lambda it: (sample_dir(out, it[1]) / "record.json").is_file(),
-              key=lambda it: f"{it[1]:06d}", scheduler=scheduler, workers=workers, serial=serial,
-              progress=progress, label="dataset")
-    write_manifest(out, n)
+    with folder_lock(out):  # one run per dataset folder; released however this process ends
+        remove_stale_temp_files(out)  # what a killed run was writing
+        for f in drop_unreadable_records(out, "samples/*/record.json", ("index", "water", "objects")):
+            log.warning("%s was damaged: computing that sample again", f)
+        atomic_write_text(out / "dataset.json",
+                          json.dumps({"spec": spec.describe(), "seed": seed, "n": n}, indent=1))
+        overrides = overrides or {}
+        items = [(spec, i, seed, overrides.get(i)) for i in range(n)]
+        try:
+            run_tasks(items, _compute, lambda it, res: _store(out, it[1], res),
+                      is_done=lambda it: (sample_dir(out, it[1]) / "record.json").is_file(),
+                      key=lambda it: f"{it[1]:06d}", scheduler=scheduler, workers=workers, serial=serial,
+                      progress=progress, label="dataset")
+        finally:
+            write_manifest(out, n)  # the finished samples, also when interrupted or some failed
     return out

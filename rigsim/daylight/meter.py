@@ -675,6 +675,11 @@ def ambient_light_monte_carlo(water: Water, wavelength_nm, depth_m, *, sun_zenit
     if photons < batches:
         raise ConfigError(f"need at least as many photons as batches ({batches}), got {photons}",
                           field="photons", allowed=f">= {batches}")
+    from rigsim.resources import check_memory
+
+    # every photon of a wavelength is traced at once: ~360 B of state plus a tally per depth (measured)
+    check_memory(photons * (360 + 40 * (depths.size + 2)), f"{photons:g} photons at {depths.size} depths",
+                 field="photons")
     if lu_method not in ("point", "cone"):
         raise ConfigError(f"unknown Lu estimator {lu_method!r}", field="lu_method", allowed="point, cone")
     if not 0.0 < float(lu_cone_half_angle_deg) <= 30.0:

@@ -23,6 +23,7 @@ directions to world directions given the light's aim.
 from __future__ import annotations
 
 import functools
+import os
 from pathlib import Path
 
 import numpy as np
@@ -84,7 +85,7 @@ def beam_from_csv(path: str | Path) -> BeamPattern:
     angle the intensity is zero (linear interpolation in between).
     """
     path = Path(path)
-    if not path.is_file():
+    if not os.path.isfile(path):
         raise ConfigError(f"beam profile file not found: {path}", field="beam_profile",
                           allowed="an existing CSV with columns angle_deg, relative")
     try:

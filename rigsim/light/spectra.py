@@ -47,6 +47,7 @@ References
 from __future__ import annotations
 
 import functools
+import os
 from collections.abc import Callable
 from pathlib import Path
 
@@ -306,7 +307,7 @@ def light_spectrum(spec: str, wavelength_nm=LIGHT_WAVELENGTHS_NM, *,
         path = Path(text)
         if not path.is_absolute() and base_dir is not None:
             path = Path(base_dir) / path
-        if not path.is_file():
+        if not os.path.isfile(path):
             raise ConfigError(f"spectrum file not found: {path}", field="spectrum",
                               allowed="an existing CSV with columns wavelength_nm, relative")
         return spectrum_from_csv(wavelength_nm, path)

@@ -20,7 +20,8 @@ from rigsim.errors import ConfigError
 from rigsim.scene.types import Scene
 from rigsim.spectrum import band_edges
 
-__all__ = ["IMAGE_LAYERS", "MAX_IMAGE_SIDE", "ImageRequest", "image_request", "check_int", "check_scene_for_bands"]
+__all__ = ["IMAGE_LAYERS", "MAX_IMAGE_SIDE", "ImageRequest", "image_request", "image_memory_bytes", "check_int",
+           "check_scene_for_bands"]
 
 #: Ground-truth layers an image can carry (besides the radiance / flash): see
 #: :data:`rigsim.spectral_image.LAYER_DOCS`.
@@ -75,11 +76,32 @@ class ImageRequest:
         return float(self.wavelength_nm[-1] + self.bandwidth_nm[-1] / 2)
 
 
+#: Spectral layers that come in a continuous and a flash version (besides the radiance itself).
+_SPECTRAL_LAYERS = ("clear", "direct", "backscatter")
+
+
+def image_memory_bytes(width: int, height: int, bands: int, layers: Sequence[str] = ()) -> int:
+    """About how much memory an image of this size takes while it is made (bytes).
+
+    Each spectral quantity (radiance and flash, and each of ``clear``, ``direct``,
+    ``backscatter`` in both versions) is accumulated in float64 and returned in float32;
+    each scalar layer (``range_m``, ``object_id``) takes 8 bytes a pixel.
+    """
+    spectral = 2 + 2 * sum(1 for k in layers if k in _SPECTRAL_LAYERS)
+    scalar = sum(1 for k in layers if k not in _SPECTRAL_LAYERS)
+    return int(width) * int(height) * (int(bands) * spectral * (8 + 4) + 8 * scalar)
+
+
 def image_request(*, width, height, wavelengths_nm, bandwidth_nm=None, layers: Sequence[str] = (),
                   split: bool = False) -> ImageRequest:
-    """Check an image's size, bands and layers (one-line ConfigErrors naming the field)."""
-    w = check_int("width", width, 1, MAX_IMAGE_SIDE)
-    h = check_int("height", height, 1, MAX_IMAGE_SIDE)
+    """Check an image's size, bands and layers (one-line ConfigErrors naming the field).
+
+    An image larger than :data:`MAX_IMAGE_SIDE` a side, or one that would not fit in the
+    memory available now (:func:`image_memory_bytes`), is refused before anything is
+    allocated, with the memory it would need.
+    """
+    w = check_int("width", width, 1)
+    h = check_int("height", height, 1)
     if isinstance(layers, str):
         layers = (layers,)
     layers = tuple(layers)
@@ -89,6 +111,16 @@ def image_request(*, width, height, wavelengths_nm, bandwidth_nm=None, layers: S
     if split:
         layers = layers + tuple(k for k in ("direct", "backscatter") if k not in layers)
     wl, bw = band_edges(wavelengths_nm, bandwidth_nm)
+    need = image_memory_bytes(w, h, len(wl), layers)
+    if w > MAX_IMAGE_SIDE or h > MAX_IMAGE_SIDE:
+        from rigsim.resources import format_bytes
+
+        raise ConfigError(f"{w}x{h} pixels is too large: at most {MAX_IMAGE_SIDE} pixels a side (this image would "
+                          f"need about {format_bytes(need)} of memory)", field="width" if w > MAX_IMAGE_SIDE
+                          else "height", allowed=f"1 … {MAX_IMAGE_SIDE} pixels a side")
+    from rigsim.resources import check_memory
+
+    check_memory(need, f"a {w}x{h}-pixel image with {len(wl)} bands and {len(layers)} layers", field="size")
     return ImageRequest(w, h, wl, bw, layers)
 
 

@@ -24,6 +24,7 @@ file's modification time, so an edited file is read again.
 from __future__ import annotations
 
 import functools
+import os
 import re
 import warnings
 from dataclasses import dataclass
@@ -232,9 +233,9 @@ def read_mesh(path: str | Path) -> TriangleMesh:
     ((162, 3), (320, 3))
     """
     p = Path(path)
-    if not p.exists():
+    if not os.path.exists(p):
         raise ConfigError("mesh file not found", file=p, allowed=_ALLOWED)
-    if not p.is_file():
+    if not os.path.isfile(p):
         raise ConfigError("mesh path is not a file", file=p, allowed=_ALLOWED)
     if p.suffix.lower() not in MESH_SUFFIXES:
         raise ConfigError(f"unsupported mesh format {p.suffix.lower()!r}", file=p, allowed=".obj or .ply")

@@ -12,6 +12,7 @@
 
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -61,7 +62,7 @@ def reflectance_sand_assumed(wavelength_nm=REFLECTANCE_WAVELENGTHS_NM) -> np.nda
 def reflectance_from_csv(path: str | Path, wavelength_nm=REFLECTANCE_WAVELENGTHS_NM) -> np.ndarray:
     """A reflectance CSV (``wavelength_nm, reflectance``, 0–1, covering 400–700 nm), edge-held."""
     p = Path(path)
-    if not p.is_file():
+    if not os.path.isfile(p):
         raise ConfigError("reflectance file not found", file=p,
                           allowed="a CSV with columns wavelength_nm, reflectance")
     try:

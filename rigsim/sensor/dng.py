@@ -100,7 +100,7 @@ def write_dng_bytes(raw: np.ndarray, *, cfa_pattern: str, black_level, white_lev
     if f_number is not None:
         tags.append((33437, _RATIONAL, 1, _rationals([f_number]), True))
     if iso is not None:
-        tags.append((34855, _SHORT, 1, int(round(iso)), True))
+        tags.append((34855, _SHORT, 1, min(int(round(iso)), 65535), True))  # EXIF: 65535 means "or more"
     buf = io.BytesIO()
     tifffile.imwrite(buf, raw.astype(np.uint16), photometric=32803, compression=None,
                      planarconfig=None, subfiletype=0, extratags=tags, metadata=None)

@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import functools
 import numbers
+import os
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Annotated, Any, Literal
@@ -303,7 +304,7 @@ def _resolve(rel: str, toml_path: Path, fld: str) -> Path:
     else:
         cands = [toml_path.parent / p, DATA_DIR / p]
     for c in cands:
-        if c.is_file():
+        if os.path.isfile(c):
             return c
     raise ConfigError(f"file {rel!r} not found (looked in {', '.join(str(c.parent) for c in cands)})",
                       file=toml_path, field=fld, allowed="a CSV beside the sensor file or in the data tree")
@@ -386,12 +387,12 @@ def load_sensor(name_or_path: str | Path) -> Sensor:
         For an unknown name (suggesting close ones) or an invalid file.
     """
     p = Path(name_or_path)
-    if p.suffix == ".toml" or p.is_file():
-        if not p.is_file():
+    if p.suffix == ".toml" or os.path.isfile(p):
+        if not os.path.isfile(p):
             raise ConfigError("sensor file not found", file=p, allowed="an existing .toml file")
     else:
         p = SENSORS_DIR / f"{name_or_path}.toml"
-        if not p.is_file():
+        if not os.path.isfile(p):
             raise unknown_name_error("sensor", str(name_or_path), available_sensors(), field="--sensor")
     p = p.resolve()
     return _load_cached(str(p), p.stat().st_mtime)

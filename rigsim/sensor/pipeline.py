@@ -29,6 +29,10 @@ from rigsim.sensor.white_balance import white_balance_gains
 log = logging.getLogger(__name__)
 
 
+#: Highest ISO an exposure may ask for (cameras reach about 4 million).
+MAX_ISO = 1e7
+
+
 @dataclass(frozen=True)
 class Exposure:
     """Exposure settings.
@@ -59,8 +63,9 @@ class Exposure:
         if not (np.isfinite(self.exposure_time_s) and 0 < self.exposure_time_s <= 3600):
             raise ConfigError(f"shutter time must be in (0, 3600] s, got {self.exposure_time_s}",
                               field="shutter", allowed="(0, 3600] s")
-        if not (np.isfinite(self.iso) and self.iso > 0):
-            raise ConfigError(f"ISO must be > 0, got {self.iso}", field="iso", allowed="> 0")
+        if not (np.isfinite(self.iso) and 0 < self.iso <= MAX_ISO):
+            raise ConfigError(f"ISO must be in (0, {MAX_ISO:g}], got {self.iso:g}", field="iso",
+                              allowed=f"(0, {MAX_ISO:g}]")
         if not (np.isfinite(self.flash_scale) and self.flash_scale >= 0):
             raise ConfigError(f"flash scale must be >= 0, got {self.flash_scale}", field="flash_scale",
                               allowed=">= 0 (1 = the rig's strobe output)")

@@ -10,6 +10,7 @@ from __future__ import annotations
 import io
 import json
 import logging
+import os
 from pathlib import Path
 
 import numpy as np
@@ -111,7 +112,7 @@ def read_raw(path: str | Path) -> Capture:
     import rawpy
 
     path = Path(path)
-    if not path.is_file():
+    if not os.path.isfile(path):
         raise ConfigError("file not found", file=path, allowed=_RAW_ALLOWED)
     try:
         with rawpy.imread(str(path)) as r:
@@ -172,8 +173,9 @@ def save_capture(cap: Capture, out_dir: str | Path, *, extra: dict | None = None
     import cv2
     import tifffile
 
-    out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
+    from rigsim.fileio import ensure_folder
+
+    out = ensure_folder(out_dir)
     paths = {"dng": save_dng(cap, out / "raw.dng")} if dng else {}
     if cap.srgb is not None:
         ok, png = cv2.imencode(".png", np.ascontiguousarray(cap.srgb[..., ::-1]))

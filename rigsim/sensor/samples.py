@@ -65,7 +65,9 @@ SAMPLE_RAWS: dict[str, SampleRaw] = {s.name: s for s in [
 
 def cache_dir() -> Path:
     """Folder for downloaded samples: ``$RIGSIM_CACHE`` or ``~/.cache/rigsim``."""
-    return Path(os.environ.get("RIGSIM_CACHE") or Path.home() / ".cache" / "rigsim")
+    from rigsim.fileio import cache_dir as rigsim_cache
+
+    return rigsim_cache()
 
 
 def _sample(name: str) -> SampleRaw:

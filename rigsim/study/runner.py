@@ -24,7 +24,8 @@ import time
 from collections.abc import Callable
 from pathlib import Path
 
-from rigsim.fileio import atomic_write_bytes, atomic_write_text
+from rigsim.fileio import (atomic_write_bytes, atomic_write_text, drop_unreadable_records, folder_lock,
+                           remove_stale_temp_files)
 from rigsim.study.spec import Case, StudySpec
 
 log = logging.getLogger(__name__)
@@ -92,16 +93,19 @@ def run_study(spec: StudySpec, out: str | Path, *, scheduler: str | None = None,
     from rigsim.parallel import run_tasks
 
     out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    atomic_write_text(out / "study.json", json.dumps(spec.describe(), indent=1, default=str))
-    try:
-        run_tasks([(spec, c) for c in spec.cases()], _run_one, lambda it, res: _store(out, spec, it[1], res),
-                  is_done=lambda it: (_case_dir(out, spec, it[1]) / "result.json").is_file(),
-                  key=lambda it: spec.case_id(it[1]), scheduler=scheduler, workers=workers, serial=serial,
-                  progress=progress, label="study",
-                  on_done=(lambda it: on_case_done(it[1])) if on_case_done else None)
-    finally:
-        assemble_tables(spec, out)  # the finished cases' tables, also when some cases failed
+    with folder_lock(out):  # one run per study folder; released however this process ends
+        remove_stale_temp_files(out)  # what a killed run was writing
+        for f in drop_unreadable_records(out, "cases/*/result.json", ("rows",)):
+            log.warning("%s was damaged: computing that case again", f)
+        atomic_write_text(out / "study.json", json.dumps(spec.describe(), indent=1, default=str))
+        try:
+            run_tasks([(spec, c) for c in spec.cases()], _run_one, lambda it, res: _store(out, spec, it[1], res),
+                      is_done=lambda it: (_case_dir(out, spec, it[1]) / "result.json").is_file(),
+                      key=lambda it: spec.case_id(it[1]), scheduler=scheduler, workers=workers, serial=serial,
+                      progress=progress, label="study",
+                      on_done=(lambda it: on_case_done(it[1])) if on_case_done else None)
+        finally:
+            assemble_tables(spec, out)  # the finished cases' tables, also when some cases failed
     return out
 
 

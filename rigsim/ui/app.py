@@ -44,7 +44,7 @@ from rigsim.ui.rigdoc import SPECTRA, RigDoc, parse_number
 
 log = logging.getLogger(__name__)
 
-__all__ = ["RigDesigner", "create_app", "main", "DEFAULT_RIG"]
+__all__ = ["RigDesigner", "create_app", "main", "check_options", "is_loopback", "DEFAULT_RIG"]
 
 #: The rig the designer opens with.
 DEFAULT_RIG = "twin-strobes-45-wide.toml"
@@ -69,8 +69,16 @@ AIM_AT_VARS = ("l_aim_r", "l_aim_u", "l_aim_f")
 CAMERA_VARS = {"c_focal_length_mm": "focal_length_mm", "c_f_number": "f_number",
                "c_housing_radius_m": "housing_radius_m", "c_port_kind": "port_kind",
                "c_port_radius_m": "port_radius_m", "c_rig_name": "rig_name"}
+#: Seconds after the last edit at which every page is sent the server's values of what was edited.
+_RESYNC_S = 0.4
 COND_VARS = ("water", "use_constituents", "chl", "cdom", "small", "large", "depth_m", "distance_m", "target",
              "target_size", "sensor", "exposure_mode", "shutter_inv", "iso", "flash_pct", "white_balance")
+
+
+#: The variables pages edit (their server values are sent back to every page after edits).
+_EDITABLE = tuple(LIGHT_VARS) + AIM_AT_VARS + tuple(CAMERA_VARS) + COND_VARS + (
+    "light_index", "l_aim_mode", "l_power_mode", "compare_mode", "compare_waters", "compare_distances",
+    "compare_rig_b", "compare_auto", "save_name", "save_folder", "save_overwrite", "file_sel", "render_quality")
 
 
 class _Cancelled(Exception):
@@ -208,6 +216,8 @@ class RigDesigner:
                                         on_press=self._handle_pressed, on_moved=self._handle_moved,
                                         on_drag=self._handle_dragged)
         self._drag_drawn = 0.0
+        self._touched: set[str] = set()
+        self._resync_handle = None
 
         path = Path(rig_path) if rig_path else default_rigs_dir() / DEFAULT_RIG
         try:
@@ -278,10 +288,9 @@ class RigDesigner:
         names = self.doc.light_names()
         s.light_items = [{"title": f"{i + 1}: {n}", "value": i} for i, n in enumerate(names)]
         s.has_lights = bool(names)
-        if s.light_index is None or s.light_index >= len(names):
-            s.light_index = 0
+        i = self._index()
         if names:
-            v = self.doc.light_view(int(s.light_index))
+            v = self.doc.light_view(i)
             for var, key in LIGHT_VARS.items():
                 s[var] = v[key]
             for var, x in zip(AIM_AT_VARS, v["aim_at_m"]):
@@ -295,6 +304,16 @@ class RigDesigner:
         for v in list(LIGHT_VARS) + list(AIM_AT_VARS) + list(CAMERA_VARS):
             s[f"err_{v}"] = []
         s.compare_rig_items = self._compare_rig_items()
+
+    def _index(self) -> int:
+        """The selected light: ``light_index`` if a page sent a usable one, else 0 (and the state says 0)."""
+        v = self.state.light_index
+        n = len(self.doc.light_names())
+        if (isinstance(v, (int, float)) and not isinstance(v, bool) and math.isfinite(v) and v == int(v)
+                and 0 <= int(v) < max(n, 1)):
+            return int(v)
+        self.state.light_index = 0
+        return 0
 
     # ----------------------------------------------------------------- edits
     def _say(self, text: str, kind: str = "info"):
@@ -318,7 +337,7 @@ class RigDesigner:
     def _on_light_var(self, var: str, value):
         if not self.state.has_lights:
             return
-        i = int(self.state.light_index or 0)
+        i = self._index()
         key = LIGHT_VARS[var]
         current = self.doc.light_view(i)[key]
         if key == "spectrum":
@@ -350,7 +369,7 @@ class RigDesigner:
     def _on_aim_at(self, **_):
         if not self.state.has_lights or self.state.l_aim_mode != "point":
             return
-        i = int(self.state.light_index or 0)
+        i = self._index()
         vals = [self.state[v] for v in AIM_AT_VARS]
         cur = self.doc.light_view(i)
         try:
@@ -370,7 +389,7 @@ class RigDesigner:
     def _on_mode(self, which: str, value):
         if not self.state.has_lights:
             return
-        i = int(self.state.light_index or 0)
+        i = self._index()
         v = self.doc.light_view(i)
         try:
             if which == "aim" and value != v["aim_mode"]:
@@ -549,7 +568,7 @@ class RigDesigner:
         if not self.state.has_lights:
             return
         try:
-            doc = self.doc.remove_light(int(self.state.light_index or 0))
+            doc = self.doc.remove_light(self._index())
         except ConfigError as exc:
             self._refuse(None, exc)
             return
@@ -577,10 +596,10 @@ class RigDesigner:
             self._refuse(None, exc)
             return
         rgb = water_colour(scene.water, self.cond.depth_m)
-        parts = scene_parts(scene, water_rgb=rgb, selected_light=int(self.state.light_index or 0))
+        parts = scene_parts(scene, water_rgb=rgb, selected_light=self._index())
         self._drawn = draw(self.plotter, parts, background=rgb, previous=self._drawn)
         if self.handles is not None:
-            self.handles.place([light.position_m for light in scene.lights], selected=int(self.state.light_index or 0))
+            self.handles.place([light.position_m for light in scene.lights], selected=self._index())
         self.state.water_rgb = "#%02x%02x%02x" % tuple(int(round(255 * c)) for c in rgb)
         if not self._camera_set:
             d = self.cond.distance_m
@@ -592,7 +611,7 @@ class RigDesigner:
 
     def _handle_pressed(self, index: int):
         """A light's handle was grabbed in the 3-D view: select that light."""
-        if index != int(self.state.light_index or 0):
+        if index != self._index():
             with self.state:
                 self.state.light_index = index
 
@@ -897,6 +916,38 @@ class RigDesigner:
         c.compare_now = self.compare_now
         c.reset_camera = self.reset_camera
         c.on_server_ready.add(lambda **_: asyncio.ensure_future(self._worker()))
+        s.change(*_EDITABLE)(self._note_edit)
+
+    # ----------------------------------------------------------------- several pages
+    def _note_edit(self, **_):
+        """Remember what pages edited; soon after the last edit, send every page the server's values.
+
+        trame forwards one page's edit to the others in a message sent a moment later, addressed
+        to "every page but the one that sent the last message" as it is when the message goes out:
+        with two pages editing at once, a page can miss the other's last edit or get its own older
+        value back, and then show a value the server does not hold.  The server's values, sent to
+        every page once the edits stop, make all pages agree with it again."""
+        self._touched |= set(self.state.modified_keys) & set(_EDITABLE)
+        if not self._touched:
+            return
+        try:
+            loop = asyncio.get_running_loop()
+        except RuntimeError:  # no event loop (in-process tests): nothing to send to
+            return
+        if self._resync_handle is not None:
+            self._resync_handle.cancel()
+        self._resync_handle = loop.call_later(_RESYNC_S, self._resync)
+
+    def _resync(self):
+        self._resync_handle = None
+        keys, self._touched = sorted(self._touched), set()
+        proto = getattr(self.server, "protocol", None)
+        if proto is None or not keys:
+            return
+        try:
+            proto.force_push_state(*[k for k in keys if k in self.state])
+        except Exception:  # noqa: BLE001 - a page that went away must not stop the app
+            log.exception("could not send the state to the pages")
 
     # ----------------------------------------------------------------- layout
     def _layout(self):
@@ -924,10 +975,81 @@ def create_app(*, rigs_dir: str | Path | None = None, workdir: str | Path | None
     return RigDesigner(server, FileSandbox(folders), rig_path=rig_path, view=view)
 
 
+def is_loopback(host: str) -> bool:
+    """True if ``host`` is only reachable from this machine (127.0.0.0/8, ::1, localhost)."""
+    import ipaddress
+
+    h = str(host).strip().strip("[]")
+    if h.lower() == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(h).is_loopback
+    except ValueError:
+        return False
+
+
+def check_options(*, host: str = "127.0.0.1", port: int = 8080, workdir: str | Path | None = None,
+                  rig: str | Path | None = None) -> list[str]:
+    """Check the server's options before anything starts; the warnings to show (one line each).
+
+    Raises
+    ------
+    ConfigError
+        A port outside 1–65535, a host name that does not resolve, a missing --workdir.
+    """
+    import socket
+
+    if isinstance(port, bool) or not isinstance(port, int) or not 1 <= port <= 65535:
+        raise ConfigError(f"not a TCP port: {port!r}", field="--port", allowed="1 … 65535")
+    text = str(host).strip()
+    if not text or any(ord(c) < 32 for c in text) or len(text) > 253:
+        raise ConfigError(f"not a host address: {text[:60]!r}", field="--host",
+                          allowed="127.0.0.1 (default), 0.0.0.0 (every interface) or an address of this machine")
+    try:
+        socket.getaddrinfo(text.strip("[]"), port, type=socket.SOCK_STREAM)
+    except (OSError, UnicodeError, ValueError) as exc:
+        raise ConfigError(f"cannot listen on {text!r}: {exc}", field="--host",
+                          allowed="127.0.0.1 (default), 0.0.0.0 (every interface) or an address of this machine") from None
+    if workdir:
+        w = Path(workdir).expanduser()
+        if not w.is_dir():
+            raise ConfigError("the work folder does not exist", file=w, field="--workdir",
+                              allowed="an existing folder")
+    warnings_ = []
+    if not is_loopback(text):
+        warnings_.append(f"the rig designer listens on {text}:{port}, not only on this machine: anyone who can reach "
+                         "it there can open the designer and read and write rig files in rigs/ and --workdir "
+                         "(there is no login); the default --host 127.0.0.1 keeps it local")
+    return warnings_
+
+
 def main(*, host: str = "127.0.0.1", port: int = 8080, workdir: str | None = None, rigs_dir: str | None = None,
          rig: str | None = None, open_browser: bool = False, view: str = "server") -> None:
-    """Start the rig designer and serve it until interrupted."""
+    """Start the rig designer and serve it until interrupted.
+
+    Listens on 127.0.0.1 unless another ``host`` is asked for (then with a warning).  Before
+    anything starts: the options are checked (:func:`check_options`) and, for the server-drawn
+    3-D view, that off-screen OpenGL works (:func:`rigsim.environment.check_offscreen_gl`).
+    """
+    import socket
+    import sys
+
+    for w in check_options(host=host, port=port, workdir=workdir, rig=rig):
+        print(f"warning: {w}", file=sys.stderr, flush=True)
+    if view == "server":
+        from rigsim.environment import check_offscreen_gl
+
+        check_offscreen_gl()
+    try:  # a port in use: say so now, not as the web server's traceback
+        with socket.socket(socket.AF_INET6 if ":" in host.strip("[]") else socket.AF_INET) as probe:
+            probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            probe.bind((host.strip("[]"), port))
+    except OSError as exc:
+        raise ConfigError(f"cannot listen on {host}:{port}: {exc.strerror or exc}", field="--port",
+                          allowed="a free port (e.g. --port 8081)") from None
     app = create_app(rigs_dir=rigs_dir, workdir=workdir, rig=rig, view=view)
     print(f"rigsim rig designer: http://{host}:{port}/  (folders: {app.sandbox.describe()})", flush=True)
+    # timeout=0: serve until stopped (trame's default stops the server 300 s after the last page
+    # disconnects, so a closed tab -- or any client that connects and leaves -- would end it)
     app.server.start(host=host, port=port, open_browser=open_browser, show_connection_info=False,
-                     disable_logging=True)
+                     disable_logging=True, timeout=0)

@@ -3,7 +3,8 @@
 The app is a web server: whatever a browser sends as a file name is untrusted.
 :class:`FileSandbox` accepts only ``.toml`` files inside its folders — the
 repository's ``rigs/`` and one folder the user chose with ``--workdir`` — after
-resolving ``..`` and symbolic links, and refuses everything else with one line
+resolving ``..`` and symbolic links (URL-encoded names such as ``..%2f`` and backslashes
+are refused outright), and refuses everything else with one line
 (:class:`~rigsim.errors.ConfigError`) that the UI shows.
 
 Examples
@@ -19,6 +20,7 @@ rigsim.errors.ConfigError: ../../etc/x.toml: refused: outside the folders this a
 from __future__ import annotations
 
 import os
+import re
 from pathlib import Path
 
 from rigsim.errors import ConfigError
@@ -27,6 +29,8 @@ from rigsim.fileio import atomic_write_text
 __all__ = ["FileSandbox", "default_rigs_dir"]
 
 _MAX_NAME = 255
+#: A percent-encoded byte (``%2f``, ``%2E``).
+_ENCODED = re.compile(r"%[0-9A-Fa-f]{2}")
 
 
 def default_rigs_dir() -> Path:
@@ -78,8 +82,12 @@ class FileSandbox:
         text = "" if name is None else str(name).strip()
         if not text:
             raise ConfigError("no file name given", field="file", allowed="a name ending in .toml")
-        if len(text) > 4 * _MAX_NAME or any(ord(c) < 32 for c in text):
+        if len(text) > 4 * _MAX_NAME or any(ord(c) < 32 or c == "\x7f" for c in text):
             raise ConfigError("refused: not a usable file name", file=text[:80], allowed="a name ending in .toml")
+        if _ENCODED.search(text) or "\\" in text:
+            # a browser or a script may send "..%2f.." or "..\\..": refused rather than saved under an odd name
+            raise ConfigError("refused: URL-encoded or backslash names are not accepted", file=text[:80],
+                              allowed="a plain name ending in .toml")
         label = folder if folder is not None else next(iter(self.folders))
         if label not in self.folders:
             raise ConfigError(f"unknown folder {label!r}", field="folder", allowed=", ".join(self.folders))
