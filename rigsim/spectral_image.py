@@ -141,9 +141,11 @@ class SpectralImage:
             cont, flash = self.layers.get(layer), self.layers.get(f"flash_{layer}")
             if cont is None and flash is None:
                 raise KeyError(f"this image has no {layer!r} layer")
-        h = np.zeros(self.radiance.shape) if cont is None else np.asarray(cont, float) * float(exposure_s)
+        if cont is None or not np.any(cont):  # no continuous light (a strobe-only scene): the flash alone
+            return np.array(flash, float) if flash is not None else np.zeros(self.radiance.shape)
+        h = np.asarray(cont, float) * float(exposure_s)
         if flash is not None:
-            h = h + np.asarray(flash, float)
+            h += flash
         return h
 
     def save(self, directory: str | Path) -> Path:

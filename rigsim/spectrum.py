@@ -22,6 +22,17 @@ MITSUBA_WAVELENGTH_RANGE_NM = (360.0, 830.0)
 #: Most wavelengths a grid may have (a 1 nm grid over 300–2500 nm has 2201).
 MAX_WAVELENGTHS = 10000
 
+#: Colour groups of bands (nm, [lo, hi)): roughly a camera's blue, green and red channels.  The
+#: Monte Carlo noise target and the fast engine's agreement tables look at each separately.
+COLOUR_GROUPS_NM = {"blue": (0.0, 490.0), "green": (490.0, 580.0), "red": (580.0, float("inf"))}
+
+
+def colour_groups(wavelength_nm) -> dict[str, np.ndarray]:
+    """Band indices of each of :data:`COLOUR_GROUPS_NM` (empty groups left out)."""
+    wl = np.asarray(wavelength_nm, float)
+    out = {k: np.flatnonzero((wl >= lo) & (wl < hi)) for k, (lo, hi) in COLOUR_GROUPS_NM.items()}
+    return {k: g for k, g in out.items() if g.size}
+
 
 def as_wavelengths(wavelength_nm) -> np.ndarray:
     """Return wavelengths (nm) as a float array, checking they are finite and positive.
@@ -151,3 +162,29 @@ def band_edges(wavelength_nm, bandwidth_nm=None) -> tuple[np.ndarray, np.ndarray
         raise ConfigError(f"bands {wl[0] - bw[0] / 2:g}–{wl[-1] + bw[-1] / 2:g} nm leave the supported range",
                           field="wavelengths_nm", allowed=f"{lo:g}–{hi:g} nm")
     return wl, bw
+
+
+def band_average(table_nm, table_values, lo_nm, hi_nm) -> np.ndarray:
+    """Averages of a tabulated spectrum over bands ``[lo, hi]`` (nm), exactly as the renderer sees it.
+
+    The table is linear between its nodes and zero outside them (as a Mitsuba spectrum given by
+    (wavelength, value) pairs); the average over a band is the trapezoid rule on the table's own
+    nodes inside the band plus the band's ends, which is exact for such a function.  A spectrum
+    with a step (a flash spectrum that starts at 400 nm) thus gets the band straddling the step
+    right, where values at a few points inside the band would not.
+
+    Returns an array of the bands' shape; a band of zero width gets the value at its centre.
+    """
+    wl = np.asarray(table_nm, float)
+    v = np.asarray(table_values, float)
+    lo = np.atleast_1d(np.asarray(lo_nm, float))
+    hi = np.atleast_1d(np.asarray(hi_nm, float))
+    out = np.empty(np.broadcast_shapes(lo.shape, hi.shape))
+    for i, (a, b) in enumerate(zip(np.broadcast_to(lo, out.shape).ravel(), np.broadcast_to(hi, out.shape).ravel())):
+        if b <= a:
+            out.flat[i] = np.interp(0.5 * (a + b), wl, v, left=0.0, right=0.0)
+            continue
+        x = np.concatenate([[a], wl[(wl > a) & (wl < b)], [b]])
+        y = np.interp(x, wl, v, left=0.0, right=0.0)
+        out.flat[i] = np.trapezoid(y, x) / (b - a)
+    return out if np.ndim(lo_nm) or np.ndim(hi_nm) else out.reshape(())

@@ -120,7 +120,8 @@ def chart_delta_e_of_image(linear_srgb: np.ndarray, masks: dict[str, np.ndarray]
 
 
 def scene_metrics(si, target_kind: str, *, cap=None, sensor=None, exposure=None,
-                  masks: dict[str, np.ndarray] | None = None) -> tuple[dict[str, float], dict]:
+                  masks: dict[str, np.ndarray] | None = None,
+                  radiance_metrics: bool = True) -> tuple[dict[str, float], dict]:
     """The numbers of one rendered scene (see the module docstring) and the masks used.
 
     Parameters
@@ -134,21 +135,25 @@ def scene_metrics(si, target_kind: str, *, cap=None, sensor=None, exposure=None,
         sensor-independent numbers.
     masks
         Precomputed :func:`target_masks` (optional).
+    radiance_metrics
+        Also the sensor-independent numbers (``contrast_radiance``, ``backscatter_share``); a caller
+        measuring several captures of one image computes them once.
     """
     if masks is None:
         masks = target_masks(np.asarray(si.layers["object_id"]), si.meta.get("object_ids", {}), target_kind)
     out: dict[str, float] = {}
-    h_total = si.radiant_exposure(1.0)  # strobes: one flash at full power; continuous: 1 s
-    lum = photopic_luminance(h_total, si.wavelength_nm, si.bandwidth_nm)
-    if "signal" in masks and "reference" in masks:
-        out["contrast_radiance"] = float(contrast_michelson(lum[masks["signal"]].mean(),
-                                                            lum[masks["reference"]].mean()))
-    if ("backscatter" in si.layers or "flash_backscatter" in si.layers) and "target" in masks:
-        out["backscatter_share"] = float(backscatter_share(si.radiant_exposure(1.0, "backscatter"), h_total,
-                                                           masks["target"]))
+    if radiance_metrics:
+        h_total = si.radiant_exposure(1.0)  # strobes: one flash at full power; continuous: 1 s
+        lum = photopic_luminance(h_total, si.wavelength_nm, si.bandwidth_nm)
+        if "signal" in masks and "reference" in masks:
+            out["contrast_radiance"] = float(contrast_michelson(lum[masks["signal"]].mean(),
+                                                                lum[masks["reference"]].mean()))
+        if ("backscatter" in si.layers or "flash_backscatter" in si.layers) and "target" in masks:
+            out["backscatter_share"] = float(backscatter_share(si.radiant_exposure(1.0, "backscatter"), h_total,
+                                                               masks["target"]))
     if cap is not None:
         lin = np.asarray(cap.linear_rgb, float)
-        if lin.shape[:2] != lum.shape:
+        if lin.shape[:2] != np.shape(si.radiance)[:2]:
             raise ValueError("the capture was resampled: metrics need the render's pixel grid")
         y = luminance(lin)
         if "signal" in masks and "reference" in masks:

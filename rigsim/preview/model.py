@@ -97,7 +97,7 @@ from rigsim.scene.daylight_field import SceneDaylight, height_factor, path_radia
 from rigsim.scene.phase_tables import phase_tables
 from rigsim.scene.types import Scene, unit
 from rigsim.spectral_image import RenderInfo, SpectralImage
-from rigsim.spectrum import DEFAULT_WAVELENGTHS_NM, band_edges
+from rigsim.spectrum import DEFAULT_WAVELENGTHS_NM, band_average, band_edges
 from rigsim.scene.imaging import IMAGE_LAYERS, check_int, check_scene_for_bands, image_request
 from rigsim.scene.optics import angular_pitch_rad, camera_rays, fov_water_deg, outside_index, world_radius_m
 
@@ -271,7 +271,7 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
             lights = [l for l in lights if np.any(np.asarray(l.axial_intensity, float) > 0)]
             lamps, tables = [], []
             for light in lights:
-                lamp = _lamp(light, lam, lam_w, wl, rho_sub, rho_c, water, forward, r_nodes,
+                lamp = _lamp(light, lam, lam_w, wl - bw / 2, wl + bw / 2, rho_sub, rho_c, water, forward, r_nodes,
                              view.path_max[lit.index(light)])
                 lamps.append(lamp)
                 if lamp.light is not None:
@@ -483,13 +483,18 @@ class _Lamp:
         return dataclasses.replace(self, rho_I=cast(self.rho_I), tab=cast(self.tab), rho_Ic=cast(self.rho_Ic), light=lt)
 
 
-def _lamp(light, lam, lam_w, wl, rho_sub, rho_c, water: _Water | None, forward: bool, r_nodes: np.ndarray,
-          path_max: float) -> _Lamp:
+def _lamp(light, lam, lam_w, band_lo, band_hi, rho_sub, rho_c, water: _Water | None, forward: bool,
+          r_nodes: np.ndarray, path_max: float) -> _Lamp:
     lpos = np.asarray(light.position_m, float)
     axis = unit(light.aim)
     lwl, lval = np.asarray(light.wavelength_nm, float), np.asarray(light.axial_intensity, float)
-    I_sub = np.interp(lam, lwl, lval)  # (B, n_sub)
-    I_c = np.interp(wl, lwl, lval)
+    # the light's band averages, exact for its table (zero outside it, as in the renderer); the
+    # sub-band values keep their shape inside a band but are scaled to that average (a flash
+    # spectrum that starts at 400 nm would otherwise put twice the power into the 395–405 nm band)
+    I_c = band_average(lwl, lval, band_lo, band_hi)  # (B,)
+    I_sub = np.interp(lam, lwl, lval, left=0.0, right=0.0)  # (B, n_sub)
+    quad = I_sub @ lam_w
+    I_sub = np.where(quad[:, None] > 0, I_sub * (I_c / np.where(quad > 0, quad, 1.0))[:, None], I_c[:, None])
     rho_I = (rho_sub * I_sub) @ lam_w
     if water is None:
         return _Lamp(lpos, axis, light.beam.relative_intensity, rho_I)

@@ -40,7 +40,7 @@ from rigsim.scene.imaging import IMAGE_LAYERS, check_int, check_scene_for_bands,
 from rigsim.scene.optics import camera_rays, fov_water_deg, outside_index, world_radius_m
 from rigsim.scene.types import Scene
 from rigsim.spectral_image import RenderInfo, SpectralImage
-from rigsim.spectrum import DEFAULT_WAVELENGTHS_NM, band_edges
+from rigsim.spectrum import COLOUR_GROUPS_NM, DEFAULT_WAVELENGTHS_NM, band_edges, colour_groups
 
 __all__ = ["MAX_LANES", "NOISE_GROUPS_NM", "RENDER_LAYERS", "band_edges", "noise_groups", "render", "render_pass",
            "relative_noise_p99"]
@@ -187,18 +187,16 @@ def render_pass(ms: MitsubaScene, camera, *, width: int, height: int, spp: int, 
     return img, dropped
 
 
-#: Spectral groups the noise target looks at separately (nm, [lo, hi)): roughly the blue, green
+#: Spectral groups the noise target looks at separately (nm, [lo, hi); :data:`rigsim.spectrum.COLOUR_GROUPS_NM`): roughly the blue, green
 #: and red channels of a camera.  A bright path sample lands in its four wavelengths' bands, so
 #: its speckle is coloured; averaged over all bands it would look 1.2–1.4× smaller (measured on
 #: the demo's edge-lit turbid scenes) than in the channel it shows up in.
-NOISE_GROUPS_NM = ((0.0, 490.0), (490.0, 580.0), (580.0, np.inf))
+NOISE_GROUPS_NM = tuple(COLOUR_GROUPS_NM.values())
 
 
 def noise_groups(wavelength_nm) -> list[np.ndarray]:
     """Band indices of each of :data:`NOISE_GROUPS_NM` (empty groups left out)."""
-    wl = np.asarray(wavelength_nm, float)
-    out = [np.flatnonzero((wl >= lo) & (wl < hi)) for lo, hi in NOISE_GROUPS_NM]
-    return [g for g in out if g.size]
+    return list(colour_groups(wavelength_nm).values())
 
 
 def relative_noise_p99(batches: Sequence[np.ndarray], window: int = 9, groups=None) -> float:

@@ -14,7 +14,8 @@ import numpy as np
 
 from rigsim.fileio import atomic_write_text
 
-__all__ = ["write_report", "summary_sentences", "sensor_sentences", "noise_sentences"]
+__all__ = ["write_report", "summary_sentences", "sensor_sentences", "noise_sentences", "trust_sentences",
+           "trust_section"]
 
 
 def _read_csv(path: Path) -> list[dict]:
@@ -44,12 +45,38 @@ def _img_file(path: Path) -> str:
     return "data:image/png;base64," + base64.b64encode(path.read_bytes()).decode()
 
 
-def _fmt_m(x) -> str:
+def _thumb(path: Path, width: int = 320) -> str:
+    """A JPEG thumbnail of an image file, inline (the full-size file is linked beside it)."""
+    import cv2
+
+    img = cv2.imread(str(path), cv2.IMREAD_COLOR)
+    if img is None:
+        return _img_file(path)
+    if img.shape[1] > width:
+        img = cv2.resize(img, (width, max(1, round(img.shape[0] * width / img.shape[1]))), interpolation=cv2.INTER_AREA)
+    ok, buf = cv2.imencode(".jpg", img, [cv2.IMWRITE_JPEG_QUALITY, 85])
+    return "data:image/jpeg;base64," + base64.b64encode(buf.tobytes()).decode() if ok else _img_file(path)
+
+
+def _is_extension(r: dict) -> bool:
+    return r.get("extension") in (True, "True", 1.0)
+
+
+def _fmt_m(x, searched_to=None) -> str:
     if x is None or (isinstance(x, float) and np.isnan(x)):
         return "n/a"
     if np.isinf(x):
-        return "beyond the sweep"
+        return f"beyond {searched_to:.0f} m" if searched_to else "beyond the sweep"
     return f"{x:.1f} m"
+
+
+def _fmt_vis(r: dict) -> str:
+    """A visibility range with how it was found (the sweep, or the fast engine beyond it)."""
+    v, sweep_max = r.get("visibility_m_radiance"), r.get("sweep_max_m")
+    txt = _fmt_m(v, r.get("searched_to_m"))
+    if v is not None and sweep_max is not None and np.isfinite(v) and v > sweep_max:
+        txt += " (found beyond the sweep by the fast engine)"
+    return txt
 
 
 def summary_sentences(vis: list[dict], *, sensor: str | None = None, target: str | None = None) -> list[str]:
@@ -61,7 +88,7 @@ def summary_sentences(vis: list[dict], *, sensor: str | None = None, target: str
     out = []
     for water, rs in by_water.items():
         rs = sorted(rs, key=lambda r: -(r.get("visibility_m_radiance") or 0))
-        parts = [f"{r['rig']} to {_fmt_m(r.get('visibility_m_radiance'))}" for r in rs]
+        parts = [f"{r['rig']} to {_fmt_vis(r)}" for r in rs]
         thr = rs[0]["threshold"] * 100
         out.append(f"In {water} water ({rs[0]['target']}), contrast stays above {thr:g} %: " + ", ".join(parts) + ".")
     return out
@@ -129,7 +156,9 @@ def write_report(study_dir: str | Path) -> Path:
     d = Path(study_dir)
     spec = json.loads((d / "study.json").read_text())
     rows = _read_csv(d / "results.csv")
+    sweep_rows = [r for r in rows if not _is_extension(r)]
     vis = _read_csv(d / "visibility.csv")
+    agreement = _read_csv(d / "agreement.csv")
     timings = _read_csv(d / "timings.csv")
     waters = list(dict.fromkeys(spec["water_names"]))
     rigs = list(dict.fromkeys(spec["rig_names"]))
@@ -146,7 +175,9 @@ def write_report(study_dir: str | Path) -> Path:
         items += summary_sentences(vis, sensor=sensors[0] if sensors else None, target=t)
     items += sensor_sentences(rows, sensors)
     r_spec = spec["render"]
-    items += noise_sentences(rows, r_spec.get("noise_target"), r_spec.get("max_spp") or 8 * r_spec["spp"])
+    if r_spec["engine"] != "preview":
+        items += noise_sentences(rows, r_spec.get("noise_target"), r_spec.get("max_spp") or 8 * r_spec["spp"])
+    items += trust_sentences(agreement, r_spec)
     sec.append("<h2>Summary</h2><ul>" + "".join(f"<li>{html.escape(s)}</li>" for s in items) + "</ul>"
                + f"<p>Visibility range: the distance at which the target's apparent contrast (luminance, "
                  f"noise-free scene radiance) falls below {thr * 100:g} %, interpolated in log-contrast over "
@@ -158,7 +189,7 @@ def write_report(study_dir: str | Path) -> Path:
         for ax, w in zip(axes[0], waters):
             for rig in rigs:
                 for s in sensors:
-                    rs = [r for r in rows if r["water"] == w and r["rig"] == rig and r["sensor"] == s
+                    rs = [r for r in sweep_rows if r["water"] == w and r["rig"] == rig and r["sensor"] == s
                           and (target is None or r["target"] == target) and r.get(ycol) is not None]
                     rs.sort(key=lambda r: r["distance_m"])
                     if rs:
@@ -197,22 +228,29 @@ def write_report(study_dir: str | Path) -> Path:
             wbar = 0.8 / max(1, len(labels))
             for i, lab in enumerate(labels):
                 rig, s = lab.split("/", 1)
-                vals = []
+                vals, searched = [], []
                 for w in waters:
                     m = [v for v in vis if v["water"] == w and v["rig"] == rig and v["sensor"] == s
                          and v["target"] == t]
                     vals.append(m[0]["visibility_m_radiance"] if m and m[0]["visibility_m_radiance"] is not None
                                 else np.nan)
+                    searched.append(m[0].get("searched_to_m") or max(spec["distances_m"]) if m else np.nan)
                 vals = np.array(vals, float)
-                ax.bar(x + i * wbar, np.where(np.isinf(vals), max(spec["distances_m"]), vals), wbar, label=lab)
+                bars = ax.bar(x + i * wbar, np.where(np.isinf(vals), searched, vals), wbar, label=lab)
+                for b, v in zip(bars, vals):
+                    if np.isinf(v):
+                        b.set_hatch("//")
             ax.set_xticks(x + 0.4 - wbar / 2, waters)
+            ax.axhline(max(spec["distances_m"]), color="k", ls=":", lw=1)
             ax.set_ylabel("visibility range (m)")
             ax.set_title(t)
             ax.legend(fontsize=7)
         fig.tight_layout()
         sec.append(f"<h2>Visibility range</h2><img src='{_png(fig)}'>"
-                   "<p>Bars at the largest distance mean the contrast stayed above the threshold over the whole "
-                   "sweep.</p>")
+                   "<p>The dotted line is the sweep's largest distance.  Where a target was still visible there, "
+                   "the study rendered it farther out with the fast engine (distance × 1.5 per step) until its "
+                   "contrast fell below the threshold; a hatched bar means it was still visible at the farthest "
+                   "distance tried.</p>")
     # ------------------------------------------------------------------ image grids
     for rig in rigs:
         for s in sensors:
@@ -224,12 +262,18 @@ def write_report(study_dir: str | Path) -> Path:
                         m = [r for r in rows if r["rig"] == rig and r["sensor"] == s and r["water"] == w
                              and r["target"] == t and r["distance_m"] == dist]
                         img = d / "cases" / m[0]["case_id"] / f"{s}.png" if m else None
-                        tr.append(f"<td><img class='thumb' src='{_img_file(img)}'></td>" if img and img.is_file()
-                                  else "<td>—</td>")
+                        rel = f"cases/{m[0]['case_id']}/{s}.png" if m else ""
+                        tr.append(f"<td><a href='{html.escape(rel)}'><img class='thumb' src='{_thumb(img)}'></a></td>"
+                                  if img and img.is_file() else "<td>—</td>")
                     cells.append("<tr>" + "".join(tr) + "</tr>")
                 head = "<tr><th></th>" + "".join(f"<th>{x:g} m</th>" for x in spec["distances_m"]) + "</tr>"
                 sec.append(f"<h3>Images: {html.escape(rig)} · {html.escape(s)} · {html.escape(t)}</h3>"
                            f"<table class='grid'>{head}{''.join(cells)}</table>")
+    if rows:
+        sec.insert(len(sec) - len(rigs) * len(sensors) * len(targets),
+                   f"<h2>Predicted photographs</h2><p>Each developed photograph is {int(spec['render']['width'])}×"
+                   f"{int(spec['render']['height'])} pixels (click a thumbnail for the full-size file).</p>")
+    sec += trust_section(d, agreement, spec)
 
     # ------------------------------------------------------------------ tables and inputs
     if vis:
@@ -247,6 +291,9 @@ def write_report(study_dir: str | Path) -> Path:
         spp_text = (f"{span} samples per pixel (batches of {r['spp']} until the Monte Carlo noise, 99th "
                     f"percentile of pixels in the noisiest colour, is below {r['noise_target']:g} of the local mean; at most "
                     f"{r.get('max_spp') or 8 * r['spp']}; column spp of results.csv)")
+    if r["engine"] == "preview":
+        spp_text = ("by the fast engine (rigsim.preview: semi-analytic, no Monte Carlo noise; checked against "
+                    "Monte Carlo in the section above)")
     sec.append("<h2>Inputs</h2>"
                f"<p>Rendered at {r['width']}×{r['height']} pixels, {spp_text}, "
                f"{len(r['wavelengths_nm'])} bands {min(r['wavelengths_nm']):g}–{max(r['wavelengths_nm']):g} nm, "
@@ -262,6 +309,92 @@ pre{{background:#f5f5f5;padding:1em;font-size:11px;overflow:auto}}</style></head
 {''.join(sec)}</body></html>"""
     out = d / "report.html"
     atomic_write_text(out, page)
+    return out
+
+
+_REGION_KINDS = (("chart patches", lambda q, r: q == "radiance" and r.startswith("patch:")),
+                 ("disk", lambda q, r: q == "radiance" and r == "disk"),
+                 ("open water", lambda q, r: q == "radiance" and r == "open water"),
+                 ("contrast", lambda q, r: q == "contrast_radiance"),
+                 ("backscatter share", lambda q, r: q == "backscatter_share"))
+
+
+def _worst(rows: list[dict]) -> dict | None:
+    """The row whose deviation is largest in magnitude."""
+    rows = [r for r in rows if r.get("deviation") is not None and np.isfinite(r["deviation"])]
+    return max(rows, key=lambda r: abs(r["deviation"])) if rows else None
+
+
+def trust_sentences(agreement: list[dict], render: dict) -> list[str]:
+    """One sentence on the fast engine's agreement with the Monte Carlo checks (fast-engine studies)."""
+    if render.get("engine") != "preview":
+        return []
+    if not agreement:
+        return ["The fast engine's numbers were not checked against Monte Carlo in this study "
+                "(render.check_with_mitsuba = 0)."]
+    waters = list(dict.fromkeys(r["water"] for r in agreement))
+    bad = [r for r in agreement if r["verdict"] == "disagrees" and r["quantity"] == "radiance"]
+    n_cases = len({(r["rig"], r["water"], r["target"], r["distance_m"]) for r in agreement})
+    w = _worst([r for r in agreement if r["quantity"] == "radiance"])
+    txt = (f"Fast engine against Monte Carlo in {n_cases} checked cases ({', '.join(waters)}): the largest "
+           f"region difference is {w['deviation']:+.1%} ± {w['deviation_se']:.1%} ({w['region']}, {w['group']}, "
+           f"{w['water']} at {w['distance_m']:g} m)")
+    if bad:
+        bw = list(dict.fromkeys(r["water"] for r in bad))
+        txt += (f"; {len(bad)} region values disagree beyond the tolerance and the reference's noise, in "
+                f"{', '.join(bw)} — read those waters' numbers with the table below in mind.")
+    else:
+        txt += "; every region agrees within its tolerance (3 % clear water, 5 % elsewhere) or the reference's noise."
+    return [txt]
+
+
+def trust_section(d: Path, agreement: list[dict], spec: dict) -> list[str]:
+    """"How far to trust these numbers": per water, the worst deviation of each kind of region and
+    metric, and the checked cases' pictures side by side."""
+    if not agreement:
+        return []
+    waters = list(dict.fromkeys(r["water"] for r in agreement))
+    head = ("<tr><th>water</th><th>cases checked (m)</th><th>tolerance</th>"
+            + "".join(f"<th>{html.escape(k)}</th>" for k, _ in _REGION_KINDS) + "</tr>")
+    trs = []
+    for w in waters:
+        rs = [r for r in agreement if r["water"] == w]
+        dists = sorted({r["distance_m"] for r in rs})
+        cells = []
+        for _, sel in _REGION_KINDS:
+            x = _worst([r for r in rs if sel(r["quantity"], r["region"])])
+            if x is None:
+                cells.append("<td>—</td>")
+                continue
+            colour = {"agrees": "#dfd", "within noise": "#ffd", "disagrees": "#fdd"}.get(x["verdict"], "#fff")
+            where = f"{x['region'].replace('patch:', '')}, {x['group']}, {x['distance_m']:g} m"
+            cells.append(f"<td style='background:{colour}' title='{html.escape(where)}'>{x['deviation']:+.1%} "
+                         f"± {x['deviation_se']:.1%}<br><small>{html.escape(where)}</small></td>")
+        trs.append(f"<tr><td>{html.escape(w)}</td><td>{', '.join(f'{x:g}' for x in dists)}</td>"
+                   f"<td>{rs[0]['tolerance']:.0%}</td>{''.join(cells)}</tr>")
+    first = agreement[0]
+    out = [f"<h2>How far to trust these numbers</h2>"
+           f"<p>Every photograph and number above comes from the fast engine.  {len({(r['rig'], r['water'], r['target'], r['distance_m']) for r in agreement})} "
+           f"cases, chosen to cover the study's waters and distances, were also rendered by the Monte Carlo renderer "
+           f"({int(first['seeds'])} independent renders of {int(first['spp'])} paths per pixel at "
+           f"{int(first['width'])}×{int(first['height'])} pixels).  Each cell is the largest difference, fast / Monte "
+           f"Carlo − 1, over the checked cases' regions (each chart patch, the disk, the open water away from the "
+           f"target; edge pixels left out) and colour groups (blue &lt; 490 nm, green 490–580, red ≥ 580), ± the "
+           f"Monte Carlo reference's standard error; green: within the tolerance, yellow: within it plus two "
+           f"standard errors, red: beyond.  Contrast and backscatter share are the scene metrics of the tables "
+           f"above.  Every value is in agreement.csv.</p>"
+           f"<table class='data'>{head}{''.join(trs)}</table>"]
+    pics = []
+    for case_dir in sorted((d / "checks").glob("*/check.json")):
+        rec = json.loads(case_dir.read_text())
+        f, m = case_dir.parent / "fast.png", case_dir.parent / "monte-carlo.png"
+        if f.is_file() and m.is_file():
+            pics.append(f"<figure style='display:inline-block;margin:4px'><img class='thumb' src='{_img_file(f)}'>"
+                        f"<img class='thumb' src='{_img_file(m)}'><figcaption><small>{html.escape(rec['rig'])}, "
+                        f"{html.escape(rec['water'])}, {html.escape(str(rec['target']))}, {rec['distance_m']:g} m: "
+                        f"fast | Monte Carlo</small></figcaption></figure>")
+    if pics:
+        out.append("<h3>The checked cases: fast engine | Monte Carlo (same exposure)</h3>" + "".join(pics))
     return out
 
 

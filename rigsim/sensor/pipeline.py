@@ -229,8 +229,33 @@ def mean_electrons_rgb(spectral_image, sensor: Sensor, exposure: Exposure) -> np
     return (e[0] * np.float32(exposure.exposure_time_s) + e[1] * np.float32(exposure.flash_scale)).astype(np.float32)
 
 
+#: the last few :func:`_electrons_parts` results: {(id(image), id(sensor), lens): (image, sensor, parts)}.
+#: An exposure search, the capture and the metrics of one photograph ask for the same parts; the
+#: entry holds the image and sensor themselves, so an id is never reused while its entry lives.
+_PARTS_CACHE: dict = {}
+_PARTS_CACHE_SIZE = 2
+
+
 def _electrons_parts(si, sensor: Sensor, exposure: Exposure) -> tuple[np.ndarray, np.ndarray]:
-    """Electrons per second of continuous light and per full flash, each (rows, cols, 3)."""
+    """Electrons per second of continuous light and per full flash, each (rows, cols, 3).
+
+    Read-only arrays, remembered for the last few (image, sensor, lens): do not change a
+    SpectralImage's arrays in place after capturing it (make a new image).
+    """
+    key = (id(si), id(sensor), exposure.lens)
+    hit = _PARTS_CACHE.get(key)
+    if hit is not None and hit[0] is si and hit[1] is sensor:
+        return hit[2]
+    parts = _compute_electrons_parts(si, sensor, exposure)
+    for a in parts:
+        a.flags.writeable = False
+    _PARTS_CACHE[key] = (si, sensor, parts)
+    while len(_PARTS_CACHE) > _PARTS_CACHE_SIZE:
+        _PARTS_CACHE.pop(next(iter(_PARTS_CACHE)))
+    return parts
+
+
+def _compute_electrons_parts(si, sensor: Sensor, exposure: Exposure) -> tuple[np.ndarray, np.ndarray]:
     qe = sensor.qe_at(si.wavelength_nm)
     m = electrons_per_radiance(si.wavelength_nm, si.bandwidth_nm, qe, lens=exposure.lens,
                                pixel_area_m2=sensor.pixel_area_m2, exposure_time_s=1.0)
@@ -245,7 +270,7 @@ def _electrons_parts(si, sensor: Sensor, exposure: Exposure) -> tuple[np.ndarray
     port = np.asarray(port, np.float32)
 
     def apply(layer):
-        if layer is None:
+        if layer is None or not np.any(layer):  # no such light (a strobe-only scene's continuous radiance)
             return np.zeros((rows, cols, 3), np.float32)
         e = (np.asarray(layer).reshape(-1, nb).astype(np.float64) @ m).reshape(rows, cols, 3).astype(np.float32)
         return e * port[..., None] if port.ndim else e * port

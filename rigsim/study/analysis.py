@@ -17,7 +17,12 @@ GROUP_KEYS = ("rig", "sensor", "water", "target")
 def visibility_table(rows: list[dict], threshold: float) -> list[dict]:
     """For each rig × sensor × water × target, the distance where contrast falls below
     ``threshold``, from the scene radiance (noise-free, ``contrast_radiance``) and from the
-    developed image (``contrast_image``)."""
+    developed image (``contrast_image``).
+
+    Rows beyond the sweep (``extension``, the fast engine's steps: :mod:`rigsim.study.runner`)
+    count like the others; ``sweep_max_m`` is the sweep's largest distance, ``searched_to_m`` the
+    largest distance rendered (inf visibility: still visible there).
+    """
     groups: dict[tuple, list[dict]] = defaultdict(list)
     for r in rows:
         groups[tuple(r.get(k) for k in GROUP_KEYS)].append(r)
@@ -33,6 +38,8 @@ def visibility_table(rows: list[dict], threshold: float) -> list[dict]:
             ok = np.isfinite(c)
             rng = visibility_range(d[ok], c[ok], threshold=threshold) if ok.sum() >= 2 else float("nan")
             rec[f"visibility_m_{col.split('_')[1]}"] = rng
+        rec["sweep_max_m"] = float(max((r["distance_m"] for r in rs if not r.get("extension")), default=np.nan))
+        rec["searched_to_m"] = float(d.max())
         rec["c_550_per_m"] = rs[0].get("c_550_per_m")
         out.append(rec)
     return out

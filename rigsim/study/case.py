@@ -6,7 +6,6 @@ their definitions); the study adds the inputs and exposure of each row.
 
 from __future__ import annotations
 
-import io
 import logging
 
 import numpy as np
@@ -15,30 +14,24 @@ from rigsim.study.spec import Case, StudySpec, sensor_key
 
 log = logging.getLogger(__name__)
 
-__all__ = ["compute_case"]
+__all__ = ["compute_case", "compute_check", "case_scene", "case_engine", "STUDY_LAYERS"]
 
 
 def _png_bytes(rgb8: np.ndarray) -> bytes:
-    import imageio.v3 as iio
+    """PNG bytes of an 8-bit RGB image (zlib level 3: a photograph-sized image in ~0.1 s)."""
+    import cv2
 
-    buf = io.BytesIO()
-    iio.imwrite(buf, rgb8, extension=".png")
-    return buf.getvalue()
+    ok, buf = cv2.imencode(".png", np.ascontiguousarray(rgb8[..., ::-1]), [cv2.IMWRITE_PNG_COMPRESSION, 3])
+    if not ok:
+        raise RuntimeError("PNG encoding failed")
+    return buf.tobytes()
 
 
-def compute_case(spec: StudySpec, case: Case) -> dict:
-    """Render one scene and capture it with every sensor of the study.
-
-    Returns ``{"rows": [...], "files": {name: bytes}, "meta": {...}}`` (see the runner).
-    """
+def case_scene(spec: StudySpec, case: Case):
+    """The scene of a case: ``(scene, water, target_kind)`` (a mesh file's kind is ``"mesh"``)."""
     from rigsim.config.rig import load_rig
     from rigsim.config.water import load_water
-    from rigsim.metrics.scene import scene_metrics, target_masks
     from rigsim.scene.build import build_scene
-    from rigsim.sensor import load_sensor
-    from rigsim.sensor.optics import lens_for
-    from rigsim.sensor.photograph import photograph
-    from rigsim.sensor.pipeline import Exposure
 
     rig = load_rig(case.rig)
     water = load_water(case.water)
@@ -53,19 +46,42 @@ def compute_case(spec: StudySpec, case: Case) -> dict:
         from rigsim.scene.daylight_field import daylight_from_options
 
         daylight = daylight_from_options(case.depth_m, sun_zenith_deg=30.0, model="kd")
-    scene = build_scene(rig, water, case.target, case.distance_m, size_m=size_m, daylight=daylight)
+    return build_scene(rig, water, case.target, case.distance_m, size_m=size_m, daylight=daylight), water, target_kind
+
+
+#: the layers a study renders besides the radiance
+STUDY_LAYERS = ("range_m", "object_id", "backscatter")
+
+
+def case_engine(spec: StudySpec, case: Case) -> str:
+    """The engine that renders a case: the study's, except distances beyond the sweep (the fast engine)."""
+    return "preview" if case.extension else spec.render.engine
+
+
+def compute_case(spec: StudySpec, case: Case) -> dict:
+    """Render one scene and capture it with every sensor of the study.
+
+    Returns ``{"rows": [...], "files": {name: bytes}, "meta": {...}}`` (see the runner).
+    """
+    from rigsim.metrics.scene import scene_metrics, target_masks
+    from rigsim.sensor import load_sensor
+    from rigsim.sensor.optics import lens_for
+    from rigsim.sensor.photograph import photograph
+    from rigsim.sensor.pipeline import Exposure
+
+    scene, water, target_kind = case_scene(spec, case)
     seed = spec.case_seed(case)
     rs = spec.render
-    if rs.engine == "preview":
+    engine = case_engine(spec, case)
+    if engine == "preview":
         from rigsim.preview import render_preview as _render
 
-        si = _render(scene, width=rs.width, height=rs.height, wavelengths_nm=rs.wavelengths_nm,
-                     layers=("range_m", "object_id", "backscatter"))
+        si = _render(scene, width=rs.width, height=rs.height, wavelengths_nm=rs.wavelengths_nm, layers=STUDY_LAYERS)
     else:
         from rigsim.render import render as _render
 
         si = _render(scene, width=rs.width, height=rs.height, spp=rs.spp, seed=seed, integrator=rs.integrator,
-                     wavelengths_nm=rs.wavelengths_nm, layers=("range_m", "object_id", "backscatter"),
+                     wavelengths_nm=rs.wavelengths_nm, layers=STUDY_LAYERS,
                      noise_target=rs.noise_target, max_spp=rs.max_spp)
     masks = target_masks(np.asarray(si.layers["object_id"]), si.meta.get("object_ids", {}), target_kind)
     has_flash = "flash" in si.layers
@@ -75,8 +91,8 @@ def compute_case(spec: StudySpec, case: Case) -> dict:
             "a_550_per_m": float(water.a_per_m(550.0)),
             "width": rs.width, "height": rs.height, "spp": si.render.spp,
             "mc_noise_p99": max((si.meta.get("noise_p99") or {}).values(), default=None),
-            "engine": rs.engine, "integrator": rs.integrator if rs.engine != "preview" else None,
-            "case_id": spec.case_id(case)}
+            "engine": engine, "integrator": rs.integrator if engine != "preview" else None,
+            "extension": case.extension, "case_id": spec.case_id(case)}
     base.update(scene_metrics(si, target_kind, masks=masks)[0])  # sensor-independent numbers
     files = {}
     rows = []
@@ -95,7 +111,8 @@ def compute_case(spec: StudySpec, case: Case) -> dict:
                     "f_number": lens.f_number, "flash_scale": ex.flash_scale if has_flash else None,
                     "raw_saturated_fraction": float(np.mean(cap.raw >= cap.white_level)),
                     "white_balance": wb, "target_size_m": scene.targets[0].size_m})
-        row.update(scene_metrics(si, target_kind, cap=cap, sensor=sensor, exposure=ex, masks=masks)[0])
+        row.update(scene_metrics(si, target_kind, cap=cap, sensor=sensor, exposure=ex, masks=masks,
+                                 radiance_metrics=False)[0])
         rows.append(row)
         files[f"{skey}.png"] = _png_bytes(cap.srgb)
         if cs.save_raw:
@@ -113,3 +130,52 @@ def _dng_bytes(cap) -> bytes:
 
     with tempfile.TemporaryDirectory() as d:
         return save_dng(cap, Path(d) / "raw.dng").read_bytes()
+
+
+def compute_check(spec: StudySpec, case: Case) -> dict:
+    """The Monte Carlo check of one case: the fast engine and ``spec.check.seeds`` independent
+    Monte Carlo renders at the check size, compared region by region (:mod:`rigsim.metrics.agreement`).
+
+    Returns ``{"record": {...}, "files": {"fast.png": ..., "monte-carlo.png": ...}}``.
+    """
+    import time
+
+    from rigsim.metrics.agreement import compare_renders, tolerance_for
+    from rigsim.preview import render_preview
+    from rigsim.render import render
+
+    scene, water, target_kind = case_scene(spec, case)
+    ck, wl = spec.check, spec.render.wavelengths_nm
+    t0 = time.perf_counter()
+    fast = render_preview(scene, width=ck.width, height=ck.height, wavelengths_nm=wl, layers=STUDY_LAYERS)
+    t_fast = time.perf_counter() - t0
+    seed = spec.case_seed(case)
+    refs = []
+    t0 = time.perf_counter()
+    for i in range(ck.seeds):
+        refs.append(render(scene, width=ck.width, height=ck.height, spp=ck.spp, seed=(seed + 7919 * i) % 2**32,
+                           integrator=ck.integrator, wavelengths_nm=wl, layers=("object_id", "backscatter")))
+    t_mc = time.perf_counter() - t0
+    regions, metrics = compare_renders(fast, refs, target_kind)
+    record = {"case_id": spec.case_id(case), "case": case.key(), "rig": case.rig_name, "water": case.water_name,
+              "target": target_kind if target_kind != "mesh" else case.target, "distance_m": case.distance_m,
+              "c_550_per_m": float(water.c_per_m(550.0)), "b_550_per_m": float(water.b_per_m(550.0)),
+              "tolerance": tolerance_for(case.water_name), "width": ck.width, "height": ck.height,
+              "spp": ck.spp, "seeds": ck.seeds, "integrator": ck.integrator,
+              "fast_wall_time_s": t_fast, "monte_carlo_wall_time_s": t_mc,
+              "regions": [r.record() for r in regions], "metrics": [m.record() for m in metrics]}
+    from rigsim.spectral_image import srgb_preview
+
+    fast_rgb, shown = srgb_preview(fast)  # one exposure for both pictures: the fast image's
+    mc_rgb, _ = srgb_preview(_mean_image(refs), scale=shown["xyz_scale"])
+    return {"record": record, "files": {"fast.png": _png_bytes(fast_rgb), "monte-carlo.png": _png_bytes(mc_rgb)}}
+
+
+def _mean_image(refs: list):
+    """A SpectralImage holding the mean radiance and flash of independent renders (for display)."""
+    import dataclasses
+
+    layers = {k: np.mean([np.asarray(r.layers[k], np.float32) for r in refs], axis=0)
+              for k in ("flash",) if k in refs[0].layers}
+    return dataclasses.replace(refs[0], radiance=np.mean([np.asarray(r.radiance, np.float32) for r in refs], axis=0),
+                               layers={**refs[0].layers, **layers})

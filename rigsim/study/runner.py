@@ -6,12 +6,22 @@ Layout of a study folder::
     cases/<case_id>/result.json  rows of one scene (one per sensor); written last, atomically:
                                  its presence means the case is finished
     cases/<case_id>/*.png        images of that scene (per-sensor sRGB, radiance preview)
+    checks/<check_id>/check.json the Monte Carlo check of a fast-engine case (region by region;
+                                 rigsim.metrics.agreement), with fast.png and monte-carlo.png
     results.csv                one row per case × sensor with every input and metric
     visibility.csv             visibility range per rig × sensor × water × target
+    agreement.csv              the checks: one row per checked case × region × colour group
     timings.csv                wall time per case (kept out of results.csv, which is reproducible)
 
 Re-running the same study into the same folder skips finished cases (a case's id hashes
 all of its inputs, so changing the study re-runs what changed).
+
+Visibility beyond the sweep: where a target's contrast (scene radiance or any sensor's image) is
+still above the threshold at the sweep's largest distance, the study renders that rig, water and
+target farther out with the fast engine — the distance × :data:`EXTENSION_FACTOR` per step, at
+most :data:`MAX_EXTENSION_STEPS` steps — until the contrast falls below (rows with
+``extension = True``; the report's distance plots show the sweep only).  The steps are decided by
+the finished ones, so a resumed run replays them from the stored cases.
 """
 
 from __future__ import annotations
@@ -22,6 +32,7 @@ import json
 import logging
 import time
 from collections.abc import Callable
+from dataclasses import replace
 from pathlib import Path
 
 from rigsim.fileio import (atomic_write_bytes, atomic_write_text, drop_unreadable_records, folder_lock,
@@ -30,16 +41,68 @@ from rigsim.study.spec import Case, StudySpec
 
 log = logging.getLogger(__name__)
 
-__all__ = ["run_study", "pending_cases", "assemble_tables", "read_results"]
+__all__ = ["run_study", "pending_cases", "assemble_tables", "read_results", "read_checks", "extension_cases",
+           "EXTENSION_FACTOR", "MAX_EXTENSION_STEPS"]
+
+#: Each step beyond the sweep multiplies the distance by this.
+EXTENSION_FACTOR = 1.5
+#: At most this many steps beyond the sweep (6 m × 1.5¹² ≈ 780 m).
+MAX_EXTENSION_STEPS = 12
 
 
 def _case_dir(out: Path, spec: StudySpec, case: Case) -> Path:
     return out / "cases" / spec.case_id(case)
 
 
+def _check_dir(out: Path, spec: StudySpec, case: Case) -> Path:
+    return out / "checks" / spec.check_id(case)
+
+
 def pending_cases(spec: StudySpec, out: Path) -> list[Case]:
     """Cases of ``spec`` without a finished ``result.json`` in ``out``."""
     return [c for c in spec.cases() if not (_case_dir(out, spec, c) / "result.json").is_file()]
+
+
+def _read_record(f: Path) -> dict | None:
+    try:
+        return json.loads(f.read_text()) if f.is_file() else None
+    except (OSError, ValueError):
+        return None
+
+
+def _still_visible(rows: list[dict], threshold: float) -> bool | None:
+    """Whether any row (a sensor at one distance) has a contrast at or above ``threshold``;
+    None if none of them has a contrast at all (the target is not resolved)."""
+    vals = [r.get(k) for r in rows for k in ("contrast_radiance", "contrast_image")]
+    vals = [v for v in vals if v is not None]
+    return None if not vals else any(v >= threshold for v in vals)
+
+
+def extension_cases(spec: StudySpec, out: Path) -> tuple[list[Case], list[Case]]:
+    """The steps beyond the sweep: (finished extension cases in order, the next ones to compute).
+
+    Replays the rule of the module docstring over the stored cases of ``out``.
+    """
+    if not spec.extend_visibility:
+        return [], []
+    groups: dict[tuple, list[Case]] = {}
+    for c in spec.cases():
+        groups.setdefault((c.rig, c.water, c.target), []).append(c)
+    done, todo = [], []
+    for cs in groups.values():
+        last = max(cs, key=lambda c: c.distance_m)
+        rec = _read_record(_case_dir(out, spec, last) / "result.json")
+        for _ in range(MAX_EXTENSION_STEPS):
+            if rec is None or not _still_visible(rec.get("rows", []), spec.contrast_threshold):
+                break
+            nxt = replace(last, distance_m=round(last.distance_m * EXTENSION_FACTOR, 6), extension=True)
+            rec = _read_record(_case_dir(out, spec, nxt) / "result.json")
+            if rec is None:
+                todo.append(nxt)
+                break
+            done.append(nxt)
+            last = nxt
+    return done, todo
 
 
 def _store(out: Path, spec: StudySpec, case: Case, result: dict) -> None:
@@ -52,15 +115,42 @@ def _store(out: Path, spec: StudySpec, case: Case, result: dict) -> None:
     atomic_write_text(d / "result.json", json.dumps(record, indent=1, default=float))  # completion marker
 
 
-def _run_one(args: tuple[StudySpec, Case]) -> dict:
-    """Worker side: compute one case (imports inside so workers load only what they need)."""
-    from rigsim.study.case import compute_case
+def _store_check(out: Path, spec: StudySpec, case: Case, result: dict) -> None:
+    d = _check_dir(out, spec, case)
+    d.mkdir(parents=True, exist_ok=True)
+    for name, data in result.get("files", {}).items():
+        atomic_write_bytes(d / name, data)
+    atomic_write_text(d / "check.json", json.dumps(result["record"], indent=1, default=float))  # completion marker
 
-    spec, case = args
+
+def _run_one(args: tuple[StudySpec, str, Case]) -> dict:
+    """Worker side: compute one case or check (imports inside so workers load only what they need)."""
+    from rigsim.study.case import compute_case, compute_check
+
+    spec, kind, case = args
     t0 = time.perf_counter()
-    res = compute_case(spec, case)
+    res = (compute_check if kind == "check" else compute_case)(spec, case)
     res.setdefault("meta", {})["wall_time_s"] = time.perf_counter() - t0
+    if kind == "check":
+        res["record"]["wall_time_s"] = res["meta"]["wall_time_s"]
     return res
+
+
+def _is_done(out: Path, item: tuple[StudySpec, str, Case]) -> bool:
+    spec, kind, case = item
+    if kind == "check":
+        return (_check_dir(out, spec, case) / "check.json").is_file()
+    return (_case_dir(out, spec, case) / "result.json").is_file()
+
+
+def _store_item(out: Path, item: tuple[StudySpec, str, Case], res: dict) -> None:
+    spec, kind, case = item
+    (_store_check if kind == "check" else _store)(out, spec, case, res)
+
+
+def _item_key(item: tuple[StudySpec, str, Case]) -> str:
+    spec, kind, case = item
+    return spec.check_id(case) if kind == "check" else spec.case_id(case)
 
 
 def run_study(spec: StudySpec, out: str | Path, *, scheduler: str | None = None, workers: int | None = None,
@@ -97,29 +187,72 @@ def run_study(spec: StudySpec, out: str | Path, *, scheduler: str | None = None,
         remove_stale_temp_files(out)  # what a killed run was writing
         for f in drop_unreadable_records(out, "cases/*/result.json", ("rows",)):
             log.warning("%s was damaged: computing that case again", f)
+        for f in drop_unreadable_records(out, "checks/*/check.json", ("regions", "metrics")):
+            log.warning("%s was damaged: computing that check again", f)
         atomic_write_text(out / "study.json", json.dumps(spec.describe(), indent=1, default=str))
+        # the Monte Carlo checks first: the longest items start while the fast cases fill the gaps
+        items = [(spec, "check", c) for c in spec.check_cases()] + [(spec, "case", c) for c in spec.cases()]
         try:
-            run_tasks([(spec, c) for c in spec.cases()], _run_one, lambda it, res: _store(out, spec, it[1], res),
-                      is_done=lambda it: (_case_dir(out, spec, it[1]) / "result.json").is_file(),
-                      key=lambda it: spec.case_id(it[1]), scheduler=scheduler, workers=workers, serial=serial,
-                      progress=progress, label="study",
-                      on_done=(lambda it: on_case_done(it[1])) if on_case_done else None)
+            run_tasks(items, _run_one, lambda it, res: _store_item(out, it, res),
+                      is_done=lambda it: _is_done(out, it), key=_item_key, scheduler=scheduler, workers=workers,
+                      serial=serial, progress=progress, label="study",
+                      on_done=(lambda it: on_case_done(it[2])) if on_case_done else None)
+            while True:  # visibility beyond the sweep, a step at a time (each decided by the last)
+                _, todo = extension_cases(spec, out)
+                if not todo:
+                    break
+                run_tasks([(spec, "case", c) for c in todo], _run_one, lambda it, res: _store_item(out, it, res),
+                          is_done=lambda it: _is_done(out, it), key=_item_key, serial=True, progress=progress,
+                          label=f"beyond the sweep ({todo[0].distance_m:g} m and similar)",
+                          on_done=(lambda it: on_case_done(it[2])) if on_case_done else None)
         finally:
             assemble_tables(spec, out)  # the finished cases' tables, also when some cases failed
     return out
 
 
 def read_results(spec: StudySpec, out: Path) -> tuple[list[dict], list[dict]]:
-    """Rows of all finished cases in study order, and their timings."""
+    """Rows of all finished cases in study order (then the steps beyond the sweep), and their timings."""
     rows, timings = [], []
-    for case in spec.cases():
+    for case in spec.cases() + extension_cases(spec, out)[0]:
         f = _case_dir(out, spec, case) / "result.json"
         if not f.is_file():
             continue
         rec = json.loads(f.read_text())
         rows.extend(rec["rows"])
         timings.append({"case_id": rec["case_id"], "wall_time_s": rec["meta"].get("wall_time_s")})
+    for case in spec.check_cases():
+        rec = _read_record(_check_dir(out, spec, case) / "check.json")
+        if rec is not None:
+            timings.append({"case_id": spec.check_id(case), "wall_time_s": rec.get("wall_time_s")})
     return rows, timings
+
+
+def read_checks(spec: StudySpec, out: Path) -> list[dict]:
+    """The finished Monte Carlo checks' records (``check.json``), in study order."""
+    recs = [_read_record(_check_dir(out, spec, c) / "check.json") for c in spec.check_cases()]
+    return [r for r in recs if r is not None]
+
+
+def agreement_rows(checks: list[dict]) -> list[dict]:
+    """One row per checked case × region (or metric) × colour group, for agreement.csv."""
+    from rigsim.metrics.agreement import verdict
+
+    rows = []
+    for rec in checks:
+        base = {k: rec.get(k) for k in ("rig", "water", "target", "distance_m", "c_550_per_m", "tolerance", "width",
+                                        "height", "spp", "seeds")}
+        for r in rec["regions"]:
+            rows.append({**base, "quantity": "radiance", "region": r["region"], "group": r["group"],
+                         "pixels": r["pixels"], "fast": r["fast"], "monte_carlo": r["reference"],
+                         "monte_carlo_se": r["reference_se"], "deviation": r["deviation"],
+                         "deviation_se": r["deviation_se"],
+                         "verdict": verdict(r["deviation"], r["deviation_se"], rec["tolerance"])})
+        for m in rec["metrics"]:
+            rows.append({**base, "quantity": m["metric"], "region": "target", "group": "luminance", "pixels": None,
+                         "fast": m["fast"], "monte_carlo": m["reference"], "monte_carlo_se": m["reference_se"],
+                         "deviation": m["deviation"], "deviation_se": m["deviation_se"],
+                         "verdict": verdict(m["deviation"], m["deviation_se"], rec["tolerance"])})
+    return rows
 
 
 def _csv_bytes(rows: list[dict]) -> bytes:
@@ -142,6 +275,9 @@ def assemble_tables(spec: StudySpec, out: Path) -> None:
 
     rows, timings = read_results(spec, out)
     atomic_write_bytes(out / "results.csv", _csv_bytes(rows))
+    checks = read_checks(spec, out)
+    if checks or (out / "agreement.csv").is_file():
+        atomic_write_bytes(out / "agreement.csv", _csv_bytes(agreement_rows(checks)))
     atomic_write_bytes(out / "timings.csv", _csv_bytes(timings))
     atomic_write_bytes(out / "visibility.csv", _csv_bytes(visibility_table(rows, spec.contrast_threshold)))
     try:  # Parquet when pyarrow is there

@@ -22,10 +22,23 @@
     height = 96
     spp = 64
     wavelengths = "400:700:10"
-    engine = "mitsuba"      # or "preview"
+    engine = "mitsuba"      # or "fast" (the semi-analytic engine, rigsim.preview; also called "preview")
     integrator = "rigsim"   # or "volpath"
     noise_target = 0.2      # optional: more batches of spp until the Monte Carlo noise is below this
     max_spp = 512           # optional: ... but at most this many paths per pixel (default 8 × spp)
+    check_with_mitsuba = 8  # optional (fast engine): this many cases, chosen to cover the waters and
+                            # distances, are also rendered by Monte Carlo at the [check] size; the report
+                            # says how far the fast engine's numbers can be trusted in each water
+
+    [check]                 # optional: the Monte Carlo checks of a fast-engine study
+    width = 96
+    height = 64
+    spp = 256               # paths per pixel of each of `seeds` independent renders
+    seeds = 4               # the reference is their mean; its standard error is their spread / sqrt(seeds)
+
+    [sweep]
+    extend_visibility = true  # default: where a target stays visible over the whole sweep, the study
+                              # goes on with the fast engine (distance x 1.5 per step) until it is not
 
     [capture]
     exposure = "auto"       # or "manual" with iso, shutter_s
@@ -60,7 +73,7 @@ from rigsim.schema import Bool, FileModel, Int, Real, Unit, WavelengthGrid, inva
 from rigsim.errors import ConfigError, RigsimError, unknown_name_error
 from rigsim.spectrum import parse_wavelength_range
 
-__all__ = ["RenderSettings", "CaptureSettings", "StudySpec", "Case", "load_study", "TARGETS", "StudyFile"]
+__all__ = ["RenderSettings", "CheckSettings", "CaptureSettings", "select_check_cases", "StudySpec", "Case", "load_study", "TARGETS", "StudyFile"]
 
 #: Built-in target names (besides mesh files).
 TARGETS = ("colorchecker", "black-disk", "white-disk", "slanted-edge", "bottom")
@@ -74,12 +87,26 @@ class RenderSettings:
     height: int = 96
     spp: int = 64
     wavelengths_nm: tuple[float, ...] = tuple(np.arange(400.0, 701.0, 10.0))
-    engine: str = "mitsuba"
+    engine: str = "mitsuba"  # "mitsuba" (Monte Carlo) or "preview" (the fast engine)
     integrator: str = "rigsim"
     #: render in batches of ``spp`` until the noise (:func:`rigsim.render.renderer.relative_noise_p99`)
     #: is below this, up to ``max_spp`` (None: one batch)
     noise_target: float | None = None
     max_spp: int | None = None
+    #: fast-engine studies: this many cases are also rendered by Monte Carlo (:class:`CheckSettings`)
+    check_with_mitsuba: int = 0
+
+
+@dataclass(frozen=True)
+class CheckSettings:
+    """The Monte Carlo checks of a fast-engine study: image size (px), paths per pixel of each of
+    ``seeds`` independent renders (the reference is their mean, its standard error their spread)."""
+
+    width: int = 96
+    height: int = 64
+    spp: int = 256
+    seeds: int = 4
+    integrator: str = "rigsim"
 
 
 @dataclass(frozen=True)
@@ -108,9 +135,14 @@ class Case:
     target: str
     depth_m: float | None
     target_fill: float | None = None
+    #: a distance beyond the sweep, rendered by the fast engine to find the visibility range
+    extension: bool = False
 
     def key(self) -> dict:
-        return asdict(self)
+        d = asdict(self)
+        if not self.extension:  # the ids of sweep cases stay what they were before extensions existed
+            d.pop("extension")
+        return d
 
 
 @dataclass(frozen=True)
@@ -135,6 +167,8 @@ class StudySpec:
     source: str = ""
     quick: bool = False
     extra: dict = field(default_factory=dict, compare=False)
+    check: CheckSettings = CheckSettings()
+    extend_visibility: bool = True
 
     def cases(self) -> list[Case]:
         """All scenes, in a fixed order (rig, water, target, distance)."""
@@ -146,6 +180,18 @@ class StudySpec:
                         out.append(Case(rig, rn, w, wn, float(d), t, self.depth_m, self.target_fill))
         return out
 
+    def check_cases(self) -> list[Case]:
+        """The cases also rendered by Monte Carlo (``render.check_with_mitsuba`` of them; fast-engine
+        studies only): spread over the waters first (as evenly as the number allows), then over each
+        water's distances (nearest, farthest, between), alternating the rigs and targets."""
+        n = self.render.check_with_mitsuba if self.render.engine == "preview" else 0
+        return select_check_cases(self.cases(), n)
+
+    def check_id(self, case: Case) -> str:
+        """Stable id of a case's Monte Carlo check (the case's id + a hash of the check settings)."""
+        h = hashlib.sha1(json.dumps(asdict(self.check), sort_keys=True).encode()).hexdigest()[:6]
+        return f"{self.case_id(case)}__check-{h}"
+
     def describe(self) -> dict:
         d = asdict(self)
         d.pop("extra", None)
@@ -154,7 +200,8 @@ class StudySpec:
     def case_id(self, case: Case) -> str:
         """Stable id of a case: readable prefix + hash of everything that changes its result."""
         render = {k: v for k, v in asdict(self.render).items()
-                  if not (k in ("noise_target", "max_spp") and v is None)}  # ids of older studies stay
+                  if not (k in ("noise_target", "max_spp") and v is None)  # ids of older studies stay
+                  and k != "check_with_mitsuba"}  # the checks do not change a case's result
         payload = {"case": case.key(), "render": render, "capture": asdict(self.capture),
                    "sensors": list(self.sensors), "seed": self.seed}
         h = hashlib.sha1(json.dumps(payload, sort_keys=True).encode()).hexdigest()[:10]
@@ -165,6 +212,42 @@ class StudySpec:
         """Seed of a case: derived from the study seed and the case's inputs (order-independent)."""
         h = hashlib.sha1(json.dumps({"seed": self.seed, "case": case.key()}, sort_keys=True).encode())
         return int(h.hexdigest()[:8], 16)
+
+
+def select_check_cases(cases: list[Case], n: int) -> list[Case]:
+    """``n`` of ``cases`` (sweep order) covering their waters, then their distances (see
+    :meth:`StudySpec.check_cases`); all of them if ``n`` is at least their number."""
+    if n <= 0:
+        return []
+    if n >= len(cases):
+        return list(cases)
+    by_water: dict[str, list[Case]] = {}
+    for c in cases:
+        by_water.setdefault(c.water, []).append(c)
+    waters = list(by_water)
+    share = [n // len(waters) + (1 if i < n % len(waters) else 0) for i in range(len(waters))]
+    picked: list[Case] = []
+    for wi, (w, k) in enumerate(zip(waters, share)):
+        cs = by_water[w]
+        dists = sorted({c.distance_m for c in cs})
+        combos = list(dict.fromkeys((c.rig, c.target) for c in cs))
+        for j in range(k):
+            # distances: nearest, farthest, then between; combos rotate (offset by the water's index)
+            pos = [0, len(dists) - 1] if k > 1 else [len(dists) // 2]
+            pos += [round(i * (len(dists) - 1) / (k - 1)) for i in range(1, k - 1)] if k > 2 else []
+            d = dists[pos[j % len(pos)]] if j < len(pos) else dists[j % len(dists)]
+            for t in range(len(combos)):
+                rig, target = combos[(j + wi + t) % len(combos)]
+                c = next((c for c in cs if c.rig == rig and c.target == target and c.distance_m == d), None)
+                if c is not None and c not in picked:
+                    picked.append(c)
+                    break
+            else:  # every combination at this distance is taken: the next case of this water not yet taken
+                c = next((c for c in cs if c not in picked), None)
+                if c is not None:
+                    picked.append(c)
+    order = {c: i for i, c in enumerate(cases)}
+    return sorted(picked, key=order.__getitem__)
 
 
 def sensor_key(name: str) -> str:
@@ -196,7 +279,9 @@ _Spp = Annotated[Int, Field(ge=1, le=1 << 20)]
 _NoiseTarget = Annotated[Real, Field(gt=0, le=10)]
 _MaxSpp = Annotated[Int, Field(ge=1, le=1 << 24)]
 _DEFAULT_WAVELENGTHS = tuple(float(x) for x in parse_wavelength_range("400:700:10"))
-_Engine = Literal["mitsuba", "preview"]
+_Checks = Annotated[Int, Field(ge=0, le=10000)]
+_Engine = Annotated[Literal["mitsuba", "preview"],
+                    BeforeValidator(lambda v: "preview" if v == "fast" else v)]  # "fast" = "preview"
 _Integrator = Literal["rigsim", "volpath"]
 
 
@@ -218,6 +303,7 @@ class SweepTable(FileModel):
     targets: _Names = ("colorchecker",)
     depth_m: _Depth | None = None
     target_fill: _TargetFill | None = None
+    extend_visibility: Bool = True
 
 
 class RenderTable(FileModel):
@@ -231,19 +317,38 @@ class RenderTable(FileModel):
     integrator: _Integrator = "rigsim"
     noise_target: _NoiseTarget | None = None
     max_spp: _MaxSpp | None = None
+    check_with_mitsuba: _Checks = 0
 
     @model_validator(mode="after")
     def _check(self) -> "RenderTable":
         if self.max_spp is not None and self.max_spp < self.spp:
             raise invalid(f"max_spp {self.max_spp} is below spp {self.spp}", field="max_spp",
                           allowed=f">= spp ({self.spp})")
+        if self.check_with_mitsuba and self.engine != "preview":
+            raise invalid("check_with_mitsuba checks the fast engine: it needs engine = \"fast\"",
+                          field="check_with_mitsuba", allowed='0 with engine = "mitsuba"')
         return self
 
     def settings(self) -> RenderSettings:
         """The :class:`RenderSettings`."""
         return RenderSettings(width=self.width, height=self.height, spp=self.spp, wavelengths_nm=self.wavelengths,
                               engine=self.engine, integrator=self.integrator, noise_target=self.noise_target,
-                              max_spp=self.max_spp)
+                              max_spp=self.max_spp, check_with_mitsuba=self.check_with_mitsuba)
+
+
+class CheckTable(FileModel):
+    """``[check]``: the Monte Carlo checks' image size (px), paths per pixel and independent seeds."""
+
+    width: _ImageSide = 96
+    height: _ImageSide = 64
+    spp: _Spp = 256
+    seeds: Annotated[Int, Field(ge=2, le=64)] = 4
+    integrator: _Integrator = "rigsim"
+
+    def settings(self) -> CheckSettings:
+        """The :class:`CheckSettings`."""
+        return CheckSettings(width=self.width, height=self.height, spp=self.spp, seeds=self.seeds,
+                             integrator=self.integrator)
 
 
 class CaptureTable(FileModel):
@@ -303,6 +408,7 @@ class QuickTable(FileModel):
     integrator: _Integrator | None = None
     noise_target: _NoiseTarget | None = None
     max_spp: _MaxSpp | None = None
+    check_with_mitsuba: _Checks | None = None
     rigs: _Names | None = None
     sensors: _Names | None = None
     waters: _Names | None = None
@@ -310,6 +416,8 @@ class QuickTable(FileModel):
     targets: _Names | None = None
     depth_m: _Depth | None = None
     target_fill: _TargetFill | None = None
+    extend_visibility: Bool | None = None
+    check: CheckTable | None = None  # the [check] table's values with --quick
 
 
 class StudyFile(FileModel):
@@ -320,6 +428,7 @@ class StudyFile(FileModel):
     render: RenderTable = RenderTable()
     capture: CaptureTable = CaptureTable()
     metrics: MetricsTable = MetricsTable()
+    check: CheckTable = CheckTable()
     quick: QuickTable | None = None
 
 
@@ -334,10 +443,15 @@ def _with_quick(doc: dict, path: Path) -> StudyFile:
     sweep_keys = set(SweepTable.model_fields)
     render = {k: v for k, v in doc.get("render", {}).items() if k not in ("noise_target", "max_spp")}
     sweep = dict(doc["sweep"])
+    check = doc.get("check", {})
     for k, v in quick.items():
-        (sweep if k in sweep_keys else render)[k] = v
+        if k == "check":
+            check = {**check, **v} if isinstance(v, dict) else v
+        else:
+            (sweep if k in sweep_keys else render)[k] = v
     try:
-        return validate(StudyFile, {**doc, "sweep": sweep, "render": render, "quick": quick}, file=path)
+        return validate(StudyFile, {**doc, "sweep": sweep, "render": render, "check": check, "quick": quick},
+                        file=path)
     except ConfigError as exc:  # a check across keys that failed because of a [quick] value: say so
         key = (exc.field or "").split(".", 1)[-1]
         if key in quick:
@@ -417,4 +531,4 @@ def load_study(path: str | Path, *, quick: bool = False) -> StudySpec:
         waters=tuple(waters), water_names=tuple(water_names), distances_m=sweep.distances_m,
         targets=tuple(targets), depth_m=sweep.depth_m, target_fill=sweep.target_fill, render=f.render.settings(),
         capture=f.capture.settings(), contrast_threshold=f.metrics.contrast_threshold,
-        source=str(path.resolve()), quick=quick)
+        source=str(path.resolve()), quick=quick, check=f.check.settings(), extend_visibility=sweep.extend_visibility)

@@ -26,6 +26,7 @@ waters = ["coastal"]
 distances_m = {distances}
 targets = ["black-disk"]
 target_fill = 0.4
+extend_visibility = false
 
 [render]
 width = 24

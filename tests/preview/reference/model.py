@@ -87,7 +87,7 @@ from rigsim.scene.daylight_field import height_factor, path_radiance, scene_dayl
 from rigsim.scene.phase_tables import phase_tables
 from rigsim.scene.types import Scene, unit
 from rigsim.spectral_image import RenderInfo, SpectralImage
-from rigsim.spectrum import DEFAULT_WAVELENGTHS_NM, band_edges
+from rigsim.spectrum import DEFAULT_WAVELENGTHS_NM, band_average, band_edges
 from rigsim.scene.imaging import IMAGE_LAYERS, check_int, check_scene_for_bands, image_request
 from rigsim.scene.optics import angular_pitch_rad, camera_rays, fov_water_deg, outside_index, pixel_rays, world_radius_m
 
@@ -295,8 +295,11 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
             theta = beam_angle(vh, axis)
             f = light.beam.relative_intensity(theta)
             geo = cos_i / (np.pi * np.maximum(r, 1e-9) ** 2)  # (h, w)
-            I_sub = np.interp(lam, lwl, lval)  # (B, n_sub)
-            I_c = np.interp(wl, lwl, lval)
+            # changed after the freeze, as in the model: the light's exact band averages
+            I_c = band_average(lwl, lval, wl - bw / 2, wl + bw / 2)
+            I_sub = np.interp(lam, lwl, lval, left=0.0, right=0.0)  # (B, n_sub)
+            quad = I_sub @ lam_w
+            I_sub = np.where(quad[:, None] > 0, I_sub * (I_c / np.where(quad > 0, quad, 1.0))[:, None], I_c[:, None])
             # band averages of ρ I (clear) and of ρ I e^{−c L} on a table of path lengths L = r + s
             clear += (geo * f)[..., None] * ((rho_sub * I_sub) @ lam_w)[oid_s]
             if not has_water:

@@ -1,0 +1,153 @@
+"""Fast-engine studies: the Monte Carlo checks (which cases, what they measure, the report's trust
+table) and the visibility range found beyond the sweep."""
+
+import csv
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rigsim.errors import ConfigError
+from rigsim.study import load_study, run_study
+from rigsim.study.spec import Case, select_check_cases
+
+ROOT = Path(__file__).resolve().parents[2]
+
+FAST = """
+[study]
+name = "fast"
+seed = 2
+
+[sweep]
+rigs = ["{root}/rigs/twin-strobes-close-to-port.toml"]
+sensors = ["sony_ilce-7rm2"]
+waters = {waters}
+distances_m = {distances}
+targets = {targets}
+target_fill = 0.4
+{sweep_extra}
+
+[render]
+engine = "fast"
+width = 64
+height = 43
+wavelengths = "420:680:40"
+{render_extra}
+"""
+
+
+def fast_study(tmp_path, *, waters='["clear"]', distances="[1.0, 2.0]", targets='["black-disk"]', sweep_extra="",
+               render_extra="", extra=""):
+    p = tmp_path / "fast.toml"
+    p.write_text(FAST.format(root=ROOT, waters=waters, distances=distances, targets=targets,
+                             sweep_extra=sweep_extra, render_extra=render_extra) + extra)
+    return p
+
+
+def _cases(waters, dists, rigs=("a",), targets=("chart",)):
+    return [Case(r, r, w, w, d, t, None) for r in rigs for w in waters for t in targets for d in dists]
+
+
+def test_check_cases_cover_every_water_and_both_ends_of_the_distances():
+    cases = _cases(["w1", "w2", "w3", "w4"], [1.0, 1.5, 2.0, 3.0, 4.5, 6.0], rigs=("r1", "r2"),
+                   targets=("chart", "disk"))
+    picked = select_check_cases(cases, 8)
+    assert len(picked) == 8 and len(set(picked)) == 8
+    for w in ("w1", "w2", "w3", "w4"):
+        ds = sorted(c.distance_m for c in picked if c.water == w)
+        assert ds == [1.0, 6.0], (w, ds)  # two per water: the nearest and the farthest
+    assert {c.rig for c in picked} == {"r1", "r2"} and {c.target for c in picked} == {"chart", "disk"}
+    assert picked == sorted(picked, key=cases.index)  # in sweep order
+    three = select_check_cases(_cases(["w"], [1.0, 2.0, 3.0, 4.0, 5.0]), 3)
+    assert [c.distance_m for c in three] == [1.0, 3.0, 5.0]
+    assert select_check_cases(cases, 0) == [] and select_check_cases(cases[:3], 10) == cases[:3]
+    assert len({c.water for c in select_check_cases(cases, 3)}) == 3  # fewer checks than waters: one each
+
+
+def test_check_with_mitsuba_needs_the_fast_engine(tmp_path):
+    p = fast_study(tmp_path, render_extra="check_with_mitsuba = 2")
+    spec = load_study(p)
+    assert spec.render.engine == "preview"  # "fast" is the fast engine's other name
+    assert len(spec.check_cases()) == 2
+    p.write_text(p.read_text().replace('engine = "fast"', 'engine = "mitsuba"'))
+    with pytest.raises(ConfigError, match=r"render.check_with_mitsuba: .*needs engine = \"fast\""):
+        load_study(p)
+    q = fast_study(tmp_path, extra="\n[check]\nseeds = 1\n")
+    with pytest.raises(ConfigError, match=r"check.seeds"):
+        load_study(q)
+
+
+def _rows(path: Path) -> list[dict]:
+    with path.open() as fh:
+        return list(csv.DictReader(fh))
+
+
+def test_visibility_is_found_beyond_the_sweep(tmp_path):
+    """Clear water, a black disk: still visible at the sweep's 2 m, so the study goes on with the fast
+    engine (x 1.5 per step) until the contrast is below the threshold, and the range is a number."""
+    spec = load_study(fast_study(tmp_path))
+    out = run_study(spec, tmp_path / "out", serial=True, progress=False)
+    rows = _rows(out / "results.csv")
+    ext = [r for r in rows if r["extension"] == "True"]
+    assert ext, "nothing was rendered beyond the sweep"
+    dists = [float(r["distance_m"]) for r in ext]
+    assert dists == [round(2.0 * 1.5 ** k, 6) for k in range(1, len(dists) + 1)]
+    last = ext[-1]
+    assert float(last["contrast_radiance"]) < 0.02 and float(last["contrast_image"]) < 0.02
+    before = [r for r in rows if float(r["distance_m"]) == (dists[-2] if len(dists) > 1 else 2.0)][0]
+    assert max(float(before["contrast_radiance"]), float(before["contrast_image"])) >= 0.02
+    (vis,) = _rows(out / "visibility.csv")
+    v = float(vis["visibility_m_radiance"])
+    assert 2.0 < v <= dists[-1] and math.isfinite(v)
+    assert float(vis["sweep_max_m"]) == 2.0 and float(vis["searched_to_m"]) == dists[-1]
+    # a second run replays the steps from the stored cases: nothing new, the same tables
+    table = (out / "results.csv").read_text()
+    n_cases = len(list((out / "cases").glob("*/result.json")))
+    run_study(spec, out, serial=True, progress=False)
+    assert (out / "results.csv").read_text() == table
+    assert len(list((out / "cases").glob("*/result.json"))) == n_cases
+    from rigsim.report.html import write_report
+
+    page = write_report(out).read_text()
+    assert "found beyond the sweep by the fast engine" in page
+
+
+def test_no_extension_when_asked_not_to(tmp_path):
+    spec = load_study(fast_study(tmp_path, sweep_extra="extend_visibility = false"))
+    out = run_study(spec, tmp_path / "out", serial=True, progress=False)
+    assert all(r["extension"] == "False" for r in _rows(out / "results.csv"))
+    (vis,) = _rows(out / "visibility.csv")
+    assert math.isinf(float(vis["visibility_m_radiance"]))
+
+
+@pytest.mark.render
+def test_a_fast_study_checks_itself_against_monte_carlo(tmp_path):
+    """One checked case in turbid Jerlov 3C water: agreement.csv has every region and colour group,
+    the fast engine's open-water veil is within 15 % of Monte Carlo at this tiny size, and the report
+    has the trust table and the side-by-side pictures."""
+    p = fast_study(tmp_path, waters='["jerlov-3C"]', distances="[1.5]", targets='["colorchecker"]',
+                   sweep_extra="extend_visibility = false", render_extra="check_with_mitsuba = 1",
+                   extra="\n[check]\nwidth = 72\nheight = 48\nspp = 16\nseeds = 2\n")
+    spec = load_study(p)
+    out = run_study(spec, tmp_path / "out", serial=True, progress=False)
+    rows = _rows(out / "agreement.csv")
+    regions = {r["region"] for r in rows if r["quantity"] == "radiance"}
+    assert "open water" in regions and sum(x.startswith("patch:") for x in regions) >= 20
+    assert {r["group"] for r in rows if r["quantity"] == "radiance"} == {"blue", "green", "red"}
+    assert {r["quantity"] for r in rows} >= {"radiance", "contrast_radiance", "backscatter_share"}
+    for r in rows:
+        assert np.isfinite(float(r["deviation"])) and float(r["monte_carlo_se"]) >= 0
+        assert r["verdict"] in ("agrees", "within noise", "disagrees")
+    veil = [float(r["deviation"]) for r in rows if r["region"] == "open water"]
+    assert max(abs(v) for v in veil) < 0.15, veil
+    (check_dir,) = (out / "checks").iterdir()
+    assert (check_dir / "fast.png").is_file() and (check_dir / "monte-carlo.png").is_file()
+    from rigsim.report.html import write_report
+
+    page = write_report(out).read_text()
+    assert "How far to trust these numbers" in page and "Fast engine against Monte Carlo in 1 checked" in page
+    # resumed: the check is not rendered again
+    before = (check_dir / "check.json").stat().st_mtime_ns
+    run_study(spec, out, serial=True, progress=False)
+    assert (check_dir / "check.json").stat().st_mtime_ns == before
