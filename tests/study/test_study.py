@@ -109,9 +109,12 @@ def test_demo_study_is_valid_and_big_enough():
     assert len(spec.waters) >= 4 and len(spec.distances_m) >= 6
     quick = load_study(ROOT / "studies" / "demo.toml", quick=True)
     assert len(quick.cases()) < len(spec.cases())
-    # the demo renders until its noise target; the quick run (CI) one batch
-    assert spec.render.noise_target == 0.15 and spec.render.max_spp == 1024
-    assert quick.render.noise_target is None and quick.render.max_spp is None
+    # photograph-sized by the fast engine, at least 8 cases checked by Monte Carlo, every water among them
+    assert spec.render.engine == "preview" and spec.render.width >= 640 and spec.render.height >= 427
+    checks = spec.check_cases()
+    assert len(checks) >= 8 and {c.water for c in checks} == set(spec.waters)
+    assert {c.distance_m for c in checks} == {min(spec.distances_m), max(spec.distances_m)}
+    assert 0 < len(quick.check_cases()) < len(checks)
 
 
 def test_report_names_the_scenes_that_missed_the_noise_target():
