@@ -8,7 +8,7 @@ radiant exposure (one flash plus 1 s of continuous light, :meth:`SpectralImage.r
 is compared with the mean of the Monte Carlo renders' region means; the reference's standard
 error is the spread of those means over √seeds.  The scene metrics the study reports
 (``contrast_radiance``, ``backscatter_share``, :func:`rigsim.metrics.scene.scene_metrics`) are
-compared the same way.
+compared the same way (the contrast only where Monte Carlo's is at least :data:`MIN_CONTRAST`).
 
 Regions are taken from the fast engine's object-id layer, without edge pixels: a patch or the disk
 eroded by one pixel (:func:`rigsim.metrics.scene.target_masks`), the open water farther than
@@ -31,13 +31,18 @@ import numpy as np
 from rigsim.metrics.scene import scene_metrics, target_masks
 from rigsim.spectrum import colour_groups
 
-__all__ = ["RegionDeviation", "MetricDeviation", "CLEAR_WATERS", "tolerance_for", "comparison_regions",
+__all__ = ["RegionDeviation", "MetricDeviation", "CLEAR_WATERS", "MIN_CONTRAST", "tolerance_for", "comparison_regions",
            "compare_renders", "verdict"]
 
 #: Waters in which the fast engine should agree within 3 % (Jerlov's oceanic types I–III and the
 #: original write-up's clear waters); elsewhere 5 %.
 CLEAR_WATERS = frozenset({"jerlov-I", "jerlov-IA", "jerlov-IB", "jerlov-II", "jerlov-III", "pure-sea", "clear",
                           "oceanic"})
+
+
+#: Contrasts are compared where the Monte Carlo contrast is at least this (1 %): below it the target
+#: is invisible, and a relative difference of two tiny contrasts says nothing about the picture.
+MIN_CONTRAST = 0.01
 
 
 def tolerance_for(water_name: str) -> float:
@@ -163,6 +168,8 @@ def compare_renders(fast, references: list, target_kind: str) -> tuple[list[Regi
     metrics: list[MetricDeviation] = []
     for key in ("contrast_radiance", "backscatter_share"):
         vals = np.array([m.get(key, np.nan) for m in mrefs], float)
+        if key == "contrast_radiance" and not np.mean(vals) >= MIN_CONTRAST:
+            continue  # a contrast too small to see: its relative difference says nothing
         if key in mf and np.all(np.isfinite(vals)):
             metrics.append(MetricDeviation(key, float(mf[key]), float(vals.mean()),
                                            float(vals.std(ddof=1) / math.sqrt(n))))

@@ -1,0 +1,159 @@
+"""Benchmark: the fast engine against Monte Carlo over waters × distances × rigs (and daylight).
+
+The whole error table of issue 18: for every water (the original write-up's six named waters and
+Jerlov's types by default), distance, shipped strobe rig and target (ColorChecker, black disk) — and
+for daylight at 5 and 15 m (the ``ambient-only`` rig) — the fast engine's region means (each chart
+patch, the disk, the open-water veil; blue / green / red bands) against the mean of ``--seeds``
+independent Monte Carlo renders, with that reference's standard error.  It runs as a study (the
+same machinery, :mod:`rigsim.metrics.agreement`, that checks every fast-engine study: every case
+checked), so it is parallel on dask, shows progress and resumes: run it again with the same
+``--out`` after an interruption.
+
+Prints, per water: the worst deviation of each kind of region and per colour group, with its
+standard error and the tolerance (3 % clear water, 5 % elsewhere); then the worst cells overall
+and the count of cells beyond tolerance + 2 SE.  Everything is in ``<out>/*/agreement.csv``.
+
+    python benchmarks/bench_fast_engine_agreement.py                       # everything: hours on 2 cores
+    python benchmarks/bench_fast_engine_agreement.py --quick               # 3 waters, 2 distances, 1 rig
+    python benchmarks/bench_fast_engine_agreement.py --waters jerlov-7C --distances 1,3 --rigs twin-strobes-45-wide
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import sys
+import time
+from collections import defaultdict
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+STROBE_RIGS = ("twin-strobes-45-wide", "twin-strobes-close-to-port", "twin-strobes-edge-lighting",
+               "single-strobe-short-arm", "video-lights-pair")
+
+STUDY = """[study]
+name = "{name}"
+seed = 1
+
+[sweep]
+rigs = {rigs}
+sensors = ["sony_ilce-7rm2"]
+waters = {waters}
+distances_m = {distances}
+targets = ["colorchecker", "black-disk"]
+target_fill = 0.4
+extend_visibility = false
+{depth}
+
+[render]
+engine = "fast"
+width = {width}
+height = {height}
+wavelengths = "400:700:10"
+check_with_mitsuba = 10000
+
+[check]
+width = {width}
+height = {height}
+spp = {spp}
+seeds = {seeds}
+"""
+
+
+def _list(text: str) -> list[str]:
+    return [x.strip() for x in text.split(",") if x.strip()]
+
+
+def main(argv=None) -> int:
+    from rigsim.water import JERLOV_TYPES, ORIGINAL_PRESETS
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--waters", default=",".join(list(ORIGINAL_PRESETS) + [f"jerlov-{t}" for t in JERLOV_TYPES]))
+    ap.add_argument("--distances", default="0.5,1,2,4,6")
+    ap.add_argument("--rigs", default=",".join(STROBE_RIGS))
+    ap.add_argument("--depths", default="5,15", help="daylight cases (the ambient-only rig); '' for none")
+    ap.add_argument("--size", default="96x64", help="image size of both engines (px)")
+    ap.add_argument("--spp", type=int, default=64, help="paths per pixel of each Monte Carlo render")
+    ap.add_argument("--seeds", type=int, default=4, help="independent Monte Carlo renders per case")
+    ap.add_argument("--out", type=Path, default=ROOT / "out" / "bench-fast-engine-agreement")
+    ap.add_argument("--serial", action="store_true")
+    ap.add_argument("--quick", action="store_true", help="clear, coastal-regions, jerlov-3C at 1 and 3 m, one rig")
+    args = ap.parse_args(argv)
+    if args.quick:
+        args.waters, args.distances, args.rigs, args.depths = "clear,coastal-regions,jerlov-3C", "1,3", \
+            "twin-strobes-45-wide", ""
+    w, h = (int(x) for x in args.size.lower().split("x"))
+    waters, rigs = _list(args.waters), _list(args.rigs)
+    distances = [float(x) for x in _list(args.distances)]
+    runs = [("strobes", [str(ROOT / "rigs" / f"{r}.toml") for r in rigs], "")]
+    runs += [(f"daylight-{d:g}m", [str(ROOT / "rigs" / "ambient-only.toml")], f"depth_m = {float(d)}")
+             for d in (float(x) for x in _list(args.depths))]
+
+    from rigsim.study import load_study, run_study
+    from rigsim.study.runner import agreement_rows, read_checks
+
+    args.out.mkdir(parents=True, exist_ok=True)
+    rows: list[dict] = []
+    t0 = time.perf_counter()
+    for name, rig_files, depth in runs:
+        f = args.out / f"{name}.toml"
+        f.write_text(STUDY.format(name=name, rigs=rig_files, waters=waters, distances=distances, depth=depth,
+                                  width=w, height=h, spp=args.spp, seeds=args.seeds).replace("'", '"'))
+        spec = load_study(f)
+        out = run_study(spec, args.out / name, serial=args.serial)
+        for r in agreement_rows(read_checks(spec, out)):
+            rows.append({**r, "lighting": name})
+    print(f"\n{len(rows)} cells from {len({(r['lighting'], r['rig'], r['water'], r['target'], r['distance_m']) for r in rows})} "
+          f"checked cases in {time.perf_counter() - t0:.0f} s; Monte Carlo: {args.seeds} x {args.spp} paths per pixel at "
+          f"{w}x{h}\n")
+    print_table(rows)
+    return 0
+
+
+KINDS = (("patches", lambda r: r["quantity"] == "radiance" and r["region"].startswith("patch:")),
+         ("disk", lambda r: r["quantity"] == "radiance" and r["region"] == "disk"),
+         ("open water", lambda r: r["quantity"] == "radiance" and r["region"] == "open water"),
+         ("contrast", lambda r: r["quantity"] == "contrast_radiance"),
+         ("backsc. share", lambda r: r["quantity"] == "backscatter_share"))
+
+
+def _f(x) -> float:
+    return float(x) if x not in (None, "") else float("nan")
+
+
+def print_table(rows: list[dict]) -> None:
+    """Per lighting and water: the worst deviation of each kind (and colour group), then the worst cells."""
+    by = defaultdict(list)
+    for r in rows:
+        by[(r["lighting"], r["water"])].append(r)
+    head = f"{'lighting':14s} {'water':18s} {'tol':>4s} " + " ".join(f"{k:>20s}" for k, _ in KINDS) + "  beyond"
+    print(head)
+    print("-" * len(head))
+    for (light, water), rs in by.items():
+        cells = []
+        for _, sel in KINDS:
+            sub = [r for r in rs if sel(r)]
+            if not sub:
+                cells.append(f"{'-':>20s}")
+                continue
+            x = max(sub, key=lambda r: abs(_f(r["deviation"])))
+            cells.append(f"{_f(x['deviation']):+7.1%} ±{_f(x['deviation_se']):4.1%} {x['group'][:1]}{_f(x['distance_m']):4.1f}m")
+        bad = sum(r["verdict"] == "disagrees" for r in rs)
+        print(f"{light:14s} {water:18s} {_f(rs[0]['tolerance']):4.0%} " + " ".join(cells) + f"  {bad}/{len(rs)}")
+    worst = sorted(rows, key=lambda r: -abs(_f(r["deviation"])))[:15]
+    print("\nworst cells:")
+    for r in worst:
+        print(f"  {_f(r['deviation']):+7.1%} ± {_f(r['deviation_se']):.1%}  {r['verdict']:12s} {r['lighting']}, {r['rig']}, "
+              f"{r['water']}, {r['target']} at {_f(r['distance_m']):g} m: {r['quantity']} {r['region']} {r['group']}")
+    se = sorted(_f(r["deviation_se"]) for r in rows if r["quantity"] == "radiance")
+    if se:
+        print(f"\nreference noise (SE of the Monte Carlo mean, radiance cells): median {se[len(se) // 2]:.1%}, "
+              f"90th percentile {se[int(0.9 * (len(se) - 1))]:.1%}")
+    n_bad = sum(r["verdict"] == "disagrees" for r in rows)
+    print(f"cells beyond tolerance + 2 SE: {n_bad} of {len(rows)}")
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
