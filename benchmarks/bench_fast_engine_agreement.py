@@ -30,6 +30,9 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
+#: The per-water summary the rig designer shows beside its numbers (``--publish``).
+PUBLISHED = ROOT / "data" / "fast_engine" / "agreement.csv"
+
 STROBE_RIGS = ("twin-strobes-45-wide", "twin-strobes-close-to-port", "twin-strobes-edge-lighting",
                "single-strobe-short-arm", "video-lights-pair")
 
@@ -80,6 +83,8 @@ def main(argv=None) -> int:
     ap.add_argument("--out", type=Path, default=ROOT / "out" / "bench-fast-engine-agreement")
     ap.add_argument("--serial", action="store_true")
     ap.add_argument("--quick", action="store_true", help="clear, coastal-regions, jerlov-3C at 1 and 3 m, one rig")
+    ap.add_argument("--publish", action="store_true",
+                    help=f"write the per-water summary to {PUBLISHED.relative_to(ROOT)} (the rig designer shows it)")
     args = ap.parse_args(argv)
     if args.quick:
         args.waters, args.distances, args.rigs, args.depths = "clear,coastal-regions,jerlov-3C", "1,3", \
@@ -109,6 +114,12 @@ def main(argv=None) -> int:
           f"checked cases in {time.perf_counter() - t0:.0f} s; Monte Carlo: {args.seeds} x {args.spp} paths per pixel at "
           f"{w}x{h}\n")
     print_table(rows)
+    if args.publish:
+        from rigsim.metrics.agreement import write_published
+
+        settings = f"{w}x{h} px, Monte Carlo {args.seeds} x {args.spp} spp, rigs {', '.join(rigs)}"
+        write_published(rows, PUBLISHED, settings=settings)
+        print(f"\nper-water summary: {PUBLISHED}")
     return 0
 
 

@@ -213,10 +213,10 @@ def _wavelength_grid(v: Any) -> tuple[float, ...]:
     if not isinstance(v, (str, list, tuple, np.ndarray)) or (not isinstance(v, str) and any(
             isinstance(x, (bool, np.bool_)) or not isinstance(x, numbers.Real) for x in v)):
         raise invalid(f"cannot read wavelengths {_short(v)}", allowed=allowed)
-    from rigsim.spectrum import as_wavelengths  # the one parser of wavelength lists
+    from rigsim.spectrum import as_wavelength_grid  # the one parser of wavelength lists
 
     try:
-        wl = as_wavelengths(v)
+        wl = as_wavelength_grid(v)
     except ConfigError as exc:
         raise invalid(exc.message, allowed=exc.allowed or allowed) from None
     if wl.ndim != 1 or wl.size == 0:

@@ -48,6 +48,14 @@ def as_wavelengths(wavelength_nm) -> np.ndarray:
                           allowed="numbers in nm, or START:STOP:STEP") from None
     if not np.all(np.isfinite(wl)) or np.any(wl <= 0):
         raise ConfigError("wavelengths must be finite and > 0 nm", field="wavelength_nm")
+    return wl
+
+
+def as_wavelength_grid(wavelength_nm) -> np.ndarray:
+    """:func:`as_wavelengths` for a grid a user asks for (bands of an image, a table's rows): at most
+    :data:`MAX_WAVELENGTHS` of them.  (Per-sample wavelengths inside Monte Carlo, one per path, are
+    arrays of any length and go through :func:`as_wavelengths`.)"""
+    wl = as_wavelengths(wavelength_nm)
     if wl.size > MAX_WAVELENGTHS:
         raise ConfigError(f"{wl.size} wavelengths, more than {MAX_WAVELENGTHS}", field="wavelength_nm",
                           allowed=f"at most {MAX_WAVELENGTHS} wavelengths")
@@ -141,7 +149,7 @@ def band_edges(wavelength_nm, bandwidth_nm=None) -> tuple[np.ndarray, np.ndarray
     single band; bands may not overlap and must lie inside Mitsuba's 360–830 nm
     (the renderer and the preview use the same bands).
     """
-    wl = np.atleast_1d(as_wavelengths(wavelength_nm)).astype(float)
+    wl = np.atleast_1d(as_wavelength_grid(wavelength_nm)).astype(float)
     if wl.size > 1 and np.any(np.diff(wl) <= 0):
         raise ConfigError("wavelengths must increase strictly", field="wavelengths_nm")
     if bandwidth_nm is None:

@@ -31,7 +31,8 @@ import numpy as np
 from rigsim.metrics.scene import scene_metrics, target_masks
 from rigsim.spectrum import colour_groups
 
-__all__ = ["RegionDeviation", "MetricDeviation", "CLEAR_WATERS", "MIN_CONTRAST", "tolerance_for", "comparison_regions",
+__all__ = ["RegionDeviation", "MetricDeviation", "CLEAR_WATERS", "MIN_CONTRAST", "PublishedAgreement",
+           "published_agreement", "write_published", "PUBLISHED_TABLE", "tolerance_for", "comparison_regions",
            "compare_renders", "verdict"]
 
 #: Waters in which the fast engine should agree within 3 % (Jerlov's oceanic types I–III and the
@@ -174,3 +175,107 @@ def compare_renders(fast, references: list, target_kind: str) -> tuple[list[Regi
             metrics.append(MetricDeviation(key, float(mf[key]), float(vals.mean()),
                                            float(vals.std(ddof=1) / math.sqrt(n))))
     return out, metrics
+
+
+# ---------------------------------------------------------------------------- the published table
+@dataclass(frozen=True)
+class PublishedAgreement:
+    """The benchmark's summary for one water and lighting (``data/fast_engine/agreement.csv``).
+
+    ``worst_deviation`` is the largest fast / Monte Carlo − 1 over the water's checked regions and
+    colour groups (``worst_where`` says which), ± ``worst_se``; ``cases`` checked cases at
+    ``distances_m``; ``beyond`` of ``cells`` region values differed by more than the tolerance plus
+    two standard errors.
+    """
+
+    lighting: str
+    water: str
+    cases: int
+    distances_m: str
+    worst_deviation: float
+    worst_se: float
+    worst_where: str
+    tolerance: float
+    beyond: int
+    cells: int
+    measured: str
+    settings: str
+
+    def sentence(self) -> str:
+        """One line for a user: how far the fast engine's picture of this water is from Monte Carlo."""
+        tail = (f"; {self.beyond} of {self.cells} region values beyond ±{self.tolerance:.0%}" if self.beyond
+                else f", all within ±{self.tolerance:.0%} or the reference's noise")
+        return (f"fast engine vs Monte Carlo in {self.water} ({self.lighting}, {self.cases} cases at "
+                f"{self.distances_m} m): worst region {self.worst_deviation:+.1%} ± {self.worst_se:.1%} "
+                f"({self.worst_where}){tail} — measured {self.measured}")
+
+
+#: The published summary (in ``data/``): written by ``benchmarks/bench_fast_engine_agreement.py --publish``.
+PUBLISHED_TABLE = "fast_engine/agreement.csv"
+
+
+def published_agreement(water_name: str, lighting: str = "strobes") -> PublishedAgreement | None:
+    """The benchmark's summary for a water (None if the benchmark did not measure it)."""
+    from rigsim.data import DATA_DIR, read_csv_table
+    from rigsim.errors import DataError
+
+    try:
+        t = read_csv_table(DATA_DIR / PUBLISHED_TABLE)
+    except (OSError, DataError):
+        return None
+    cols = t.columns
+    for i in range(len(cols["water"])):
+        if cols["water"][i] == water_name and cols["lighting"][i] == lighting:
+            return PublishedAgreement(
+                lighting=str(cols["lighting"][i]), water=str(cols["water"][i]), cases=int(cols["cases"][i]),
+                distances_m=str(cols["distances_m"][i]), worst_deviation=float(cols["worst_deviation"][i]),
+                worst_se=float(cols["worst_se"][i]), worst_where=str(cols["worst_where"][i]),
+                tolerance=float(cols["tolerance"][i]), beyond=int(cols["beyond"][i]), cells=int(cols["cells"][i]),
+                measured=str(cols["measured"][i]), settings=str(cols["settings"][i]))
+    return None
+
+
+def write_published(rows: list[dict], path, *, settings: str) -> None:
+    """Write the per-lighting, per-water summary of agreement rows (``agreement.csv`` of studies,
+    plus a ``lighting`` column) to ``path`` (atomically), keeping other waters already there."""
+    import csv
+    import datetime
+    import io
+    from collections import defaultdict
+    from pathlib import Path
+
+    from rigsim.fileio import atomic_write_text
+
+    path = Path(path)
+    old: dict[tuple[str, str], dict] = {}
+    if path.is_file():
+        with open(path, newline="") as fh:
+            lines = [ln for ln in fh if not ln.startswith("#")]
+        old = {(r["lighting"], r["water"]): r for r in csv.DictReader(lines)}
+    by = defaultdict(list)
+    for r in rows:
+        if r["quantity"] == "radiance":
+            by[(r.get("lighting", "strobes"), r["water"])].append(r)
+    today = datetime.date.today().isoformat()
+    for (light, water), rs in by.items():
+        w = max(rs, key=lambda r: abs(float(r["deviation"])))
+        cases = {(r["rig"], r["target"], float(r["distance_m"])) for r in rs}
+        old[(light, water)] = {
+            "lighting": light, "water": water, "cases": len(cases),
+            "distances_m": ", ".join(f"{d:g}" for d in sorted({c[2] for c in cases})),
+            "worst_deviation": f"{float(w['deviation']):.4f}", "worst_se": f"{float(w['deviation_se']):.4f}",
+            "worst_where": f"{w['region'].replace('patch:', '')}, {w['group']}, {w['rig']}, {w['target']} at "
+                           f"{float(w['distance_m']):g} m",
+            "tolerance": w["tolerance"], "beyond": sum(r["verdict"] == "disagrees" for r in rs), "cells": len(rs),
+            "measured": today, "settings": settings}
+    cols = ["lighting", "water", "cases", "distances_m", "worst_deviation", "worst_se", "worst_where", "tolerance",
+            "beyond", "cells", "measured", "settings"]
+    buf = io.StringIO()
+    buf.write("# The fast engine against Monte Carlo, per water: benchmarks/bench_fast_engine_agreement.py --publish\n"
+              "# (rigsim.metrics.agreement); deviations are fast / Monte Carlo - 1 of region means (fractions)\n")
+    wr = csv.DictWriter(buf, fieldnames=cols, lineterminator="\n")
+    wr.writeheader()
+    for key in sorted(old):
+        wr.writerow({c: old[key].get(c, "") for c in cols})
+    path.parent.mkdir(parents=True, exist_ok=True)
+    atomic_write_text(path, buf.getvalue())

@@ -398,7 +398,16 @@ def auto_exposure(spectral_image, sensor: Sensor, *, lens: Lens = Lens(), iso: f
         best = s_.iso
         if target * sensor.saturation_e(s_.iso) <= lv:
             break
-    return Exposure(t, best, lens, temperature_c, flash_scale=1.0)
+    # ISO steps are a factor ~2 apart: at the chosen ISO full power may overshoot the goal (up to 2x,
+    # clipping the frame), so TTL trims the flash to it there
+    goal = target * sensor.saturation_e(best)
+    if level(t, 1.0) <= goal:
+        return Exposure(t, best, lens, temperature_c, flash_scale=1.0)
+    lo, hi = 0.0, 1.0
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        lo, hi = (mid, hi) if level(t, mid) < goal else (lo, mid)
+    return Exposure(t, best, lens, temperature_c, flash_scale=0.5 * (lo + hi))
 
 
 def capture(spectral_image, sensor: Sensor, exposure: Exposure, *, seed: int = 0,

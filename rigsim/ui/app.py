@@ -124,6 +124,20 @@ def metric_rows(pred: Prediction) -> list[dict]:
     return rows
 
 
+def agreement_text(water: str, *, converged: bool = False) -> str:
+    """How far the preview (fast engine) is from Monte Carlo in this water, from the published
+    benchmark (:func:`rigsim.metrics.agreement.published_agreement`)."""
+    if converged:
+        return "This is a Monte Carlo render (the reference the preview is checked against)."
+    from rigsim.metrics.agreement import published_agreement
+
+    pub = published_agreement(Path(water).stem if water.endswith(".toml") else water)
+    if pub is None:
+        return (f"The fast engine has not been checked against Monte Carlo in {water} water: press Render for "
+                "a converged image, or run benchmarks/bench_fast_engine_agreement.py --waters ... --publish.")
+    return pub.sentence()[0].upper() + pub.sentence()[1:] + "."
+
+
 def exposure_text(pred: Prediction) -> str:
     e = pred.exposure
     parts = [fmt_shutter(e["shutter_s"]), f"ISO {e['iso']:.0f}", f"f/{e['f_number']:g}"]
@@ -262,6 +276,7 @@ class RigDesigner:
             "exposure_mode": "auto", "shutter_inv": 125, "iso": 100, "flash_pct": 100,
             "wb_items": list(WHITE_BALANCES), "white_balance": "auto",
             "preview_src": "", "preview_title": "", "preview_info": "starting…", "preview_gen": 0,
+            "agreement_text": "",
             "preview_busy": True, "metric_rows": [], "metric_values": {}, "exposure_text": "",
             "render_quality_items": list(QUALITIES), "render_quality": list(QUALITIES)[1],
             "render_running": False, "render_progress": 0, "render_message": "",
@@ -734,6 +749,7 @@ class RigDesigner:
         kind = "converged render" if converged else "preview"
         s.preview_title = f"{kind}: {pred.label} · {self.cond.water} · {self.cond.distance_m:g} m · {self.cond.target}"
         s.preview_info = f"{pred.engine} · {pred.width}×{pred.height} px · {pred.seconds:.2f} s"
+        s.agreement_text = agreement_text(self.cond.water, converged=converged)
         s.preview_gen = self.gen
         s.preview_busy = False
 

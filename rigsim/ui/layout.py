@@ -242,6 +242,8 @@ def build(app) -> None:
                                     html.Div("Exposure", classes="text-overline")
                                     html.Div("{{ exposure_text }}", classes="text-body-2", id="exposure-text")
                                     html.Div("{{ render_message }}", classes="rs-cap mt-2", id="render-message")
+                                    html.Div("How far to trust the preview", classes="text-overline mt-2")
+                                    html.Div("{{ agreement_text }}", classes="rs-cap", id="agreement-text")
                 # ------------------------------------------------ comparison
                 with v3.VCard(variant="outlined", classes="mt-3"):
                     with v3.VCardTitle(classes="d-flex align-center flex-wrap text-subtitle-1"):

@@ -81,7 +81,7 @@ class Quality:
 
 
 #: The live preview.
-PREVIEW = Quality("preview", 144, None)
+PREVIEW = Quality("preview", 960, None)
 #: Points of the contrast-versus-distance curve (metrics only, no sensor).
 CURVE = Quality("curve", 96, None, fallback_spp=16)
 #: Converged renders offered by the "Render" button.
@@ -228,11 +228,13 @@ def _scene(rig: Rig, cond: Conditions, distance_m: float | None = None, fill: fl
 
 # ----------------------------------------------------------------------------- metrics
 
-def measure(si, target_kind: str, *, cap=None, sensor=None, exposure=None) -> tuple[dict[str, float], dict]:
+def measure(si, target_kind: str, *, cap=None, sensor=None, exposure=None, masks=None,
+            radiance_metrics: bool = True) -> tuple[dict[str, float], dict]:
     """The study's numbers for one image: :func:`rigsim.metrics.scene.scene_metrics`."""
     from rigsim.metrics.scene import scene_metrics
 
-    return scene_metrics(si, target_kind, cap=cap, sensor=sensor, exposure=exposure)
+    return scene_metrics(si, target_kind, cap=cap, sensor=sensor, exposure=exposure, masks=masks,
+                         radiance_metrics=radiance_metrics)
 
 
 def _develop(si, rig: Rig, cond: Conditions, masks: dict, seed: int):
@@ -282,7 +284,8 @@ def predict(rig: Rig, cond: Conditions, *, quality: Quality = PREVIEW, seed: int
     si = fn(scene, w, h, quality.wavelengths_nm, progress)
     metrics, masks = measure(si, cond.target)
     cap, sensor, ex, exposure = _develop(si, rig, cond, masks, seed)
-    metrics, _ = measure(si, cond.target, cap=cap, sensor=sensor, exposure=ex)
+    metrics.update(measure(si, cond.target, cap=cap, sensor=sensor, exposure=ex, masks=masks,
+                           radiance_metrics=False)[0])
     notes = []
     if exposure["saturated_fraction"] > 0.01:
         notes.append(f"{100 * exposure['saturated_fraction']:.0f}% of pixels clipped")

@@ -31,6 +31,7 @@ waters = ["clear"]
 distances_m = [1.5]
 targets = ["colorchecker"]
 target_fill = 0.4
+extend_visibility = false
 
 [render]
 engine = "preview"
