@@ -194,7 +194,8 @@ class SpectralImage:
                 radiance, wl, bw = z["radiance"], z["wavelength_nm"], z["bandwidth_nm"]
         except ConfigError:
             raise
-        except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile, zlib.error) as exc:
+        except (OSError, ValueError, EOFError, KeyError, zipfile.BadZipFile, zlib.error,
+                NotImplementedError) as exc:  # a damaged zip header claims a version zipfile lacks (soak)
             raise ConfigError(f"cannot read ({_reason(exc)}); truncated or not written by rigsim", file=f,
                               allowed=allowed) from None
         radiance = np.asarray(radiance)

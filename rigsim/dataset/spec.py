@@ -181,6 +181,8 @@ class SceneRanges(FileModel):
     @field_validator("kinds")
     @classmethod
     def _kinds(cls, v: tuple[str, ...]) -> tuple[str, ...]:
+        if not v:  # found by tools/soak.py: an empty list reached rng.choice (a traceback)
+            raise invalid("must name at least one object kind", allowed=", ".join(OBJECT_KINDS))
         for i, k in enumerate(v):
             if k not in OBJECT_KINDS:
                 exc = unknown_name_error("object kind", k, OBJECT_KINDS)

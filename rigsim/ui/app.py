@@ -38,7 +38,7 @@ import numpy as np
 from rigsim.errors import ConfigError, RigsimError
 from rigsim.ui.files import FileSandbox, default_rigs_dir
 from rigsim.ui.handles import LightHandles, ensure_interactor, on_plane
-from rigsim.ui.predict import (PREVIEW, QUALITIES, TARGETS, WHITE_BALANCES, Conditions, Prediction,
+from rigsim.ui.predict import (COMPARE, PREVIEW, QUALITIES, Quality, TARGETS, WHITE_BALANCES, Conditions, Prediction,
                                contrast_curve, load_water_cached, predict, preview_engine)
 from rigsim.ui.rigdoc import SPECTRA, RigDoc, parse_number
 
@@ -697,12 +697,13 @@ class RigDesigner:
         loop = asyncio.get_running_loop()
         return await loop.run_in_executor(self.pool, lambda: fn(*args, **kw))
 
-    async def _predict_cached(self, doc: RigDoc, rig, cond: Conditions, label: str) -> Prediction:
-        key = (self._rig_key(doc), cond, PREVIEW.name)
+    async def _predict_cached(self, doc: RigDoc, rig, cond: Conditions, label: str,
+                              quality: Quality = PREVIEW) -> Prediction:
+        key = (self._rig_key(doc), cond, quality.name)
         if key in self._cache_pred:
             p = self._cache_pred[key]
             return dataclasses.replace(p, label=label)
-        p = await self._run(predict, rig, cond, label=label)
+        p = await self._run(predict, rig, cond, label=label, quality=quality)
         self._cache_pred.put(key, p)
         return p
 
@@ -805,7 +806,7 @@ class RigDesigner:
             if gen != self.gen:
                 return
             try:
-                p = await self._predict_cached(doc, rig, cond, label)
+                p = await self._predict_cached(doc, rig, cond, label, COMPARE)
             except RigsimError as exc:
                 cells.append({"title": label, "src": "", "rows": [], "exposure": "", "error": str(exc)})
                 continue

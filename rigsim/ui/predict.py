@@ -80,8 +80,10 @@ class Quality:
     fallback_spp: int = 4  # paths per pixel when the preview model is missing and a render stands in
 
 
-#: The live preview.
+#: The live preview (photograph-sized: the fast engine makes it in about a second).
 PREVIEW = Quality("preview", 960, None)
+#: Each cell of the side-by-side comparison (shown small; up to four of them per edit).
+COMPARE = Quality("compare", 320, None)
 #: Points of the contrast-versus-distance curve (metrics only, no sensor).
 CURVE = Quality("curve", 96, None, fallback_spp=16)
 #: Converged renders offered by the "Render" button.

@@ -79,3 +79,15 @@ def test_turbid_water_previews_are_finite(ws):
     res = run_config_case(ConfigCase("water", b"[water]\na_per_m = 1e4\nb_per_m = 1e4\nphase = 'hg:0.9'\n",
                                      ["iops"]), ws)
     assert res.outcome == "ok", res.detail
+
+
+def test_a_dataset_with_no_object_kinds_is_refused(ws):
+    """Found by tools/soak.py (10 000 cases, seed 2026): ``kinds = []`` reached ``rng.choice`` (a
+    ValueError traceback) instead of being refused when the spec was read."""
+    from tests.fuzz.cases import ConfigCase
+
+    doc = (ROOT / "tests" / "data" / "tiny-dataset.toml").read_text()
+    assert 'kinds = ["colorchecker"]' in doc
+    doc = doc.replace('kinds = ["colorchecker"]', "kinds = []")
+    res = run_config_case(ConfigCase("dataset", doc.encode(), ["empty kinds"]), ws)
+    assert res.outcome == "refused" and "kinds" in res.detail, (res.outcome, res.detail)

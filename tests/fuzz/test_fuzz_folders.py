@@ -25,3 +25,12 @@ def test_truncated_spectral_npz_is_one_line(ws):
     for damage in ("nan", "negative"):
         res = run_folder_case(FolderCase("render", "spectral.npz", damage, arg=5), ws)
         assert res.outcome == "refused" and "not finite or negative" in res.detail, res.detail
+
+
+def test_a_zip_header_claiming_an_unknown_version_is_one_line(ws):
+    """Found by tools/soak.py (10 000 cases, seed 2026): one flipped byte in spectral.npz's zip header
+    made zipfile raise NotImplementedError ('zip file version 21.0'), which reached the user as an
+    internal error."""
+    res = run_folder_case(FolderCase("render", "spectral.npz", "flip", arg=9787, payload=b"\xd9"), ws)
+    assert res.outcome == "refused", (res.outcome, res.detail)
+    assert "spectral.npz" in res.detail

@@ -226,10 +226,15 @@ def test_page_edit_compare_and_files(server):
         wider = _wait_new_preview(page, turned)
         assert wider["src"] != turned["src"]
 
+        # beside the numbers: how far the preview is from Monte Carlo in this water (or that it was not checked)
+        agree = page.locator("#agreement-text").text_content()
+        assert "Monte Carlo" in agree, agree
+
         # the comparison panel fills with images for both waters and the plot
         page.wait_for_selector("#compare-plot", timeout=60_000)
-        assert page.locator("#compare-info").text_content().startswith("2 images") or \
-            page.locator(".v-card-subtitle").count() >= 2
+        # the cells (320 px photographs) may finish after the plot
+        page.wait_for_function("document.querySelector('#compare-info').textContent.startsWith('2 images')",
+                               timeout=60_000)
 
         # a converged render, with progress, replaces the preview
         _choose(page, "render-quality", "draft 240 px, 16 spp")
