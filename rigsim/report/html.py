@@ -73,7 +73,13 @@ def _fmt_m(x, searched_to=None) -> str:
 def _fmt_vis(r: dict) -> str:
     """A visibility range with how it was found (the sweep, or the fast engine beyond it)."""
     v, sweep_max = r.get("visibility_m_radiance"), r.get("sweep_max_m")
-    txt = _fmt_m(v, r.get("searched_to_m"))
+    far, end = r.get("contrast_at_searched_end"), r.get("searched_to_m")
+    if v is not None and np.isinf(v) and far is not None and end is not None and sweep_max is not None \
+            and end > sweep_max:
+        return (f"not found: the contrast levels off at {far:.1%} out to {end:.0f} m (a contrast that does not "
+                f"fall with distance is not the target's: the strobes' veil differs between the target and the "
+                f"water around it)")
+    txt = _fmt_m(v, end)
     if v is not None and sweep_max is not None and np.isfinite(v) and v > sweep_max:
         txt += " (found beyond the sweep by the fast engine)"
     return txt
@@ -88,7 +94,8 @@ def summary_sentences(vis: list[dict], *, sensor: str | None = None, target: str
     out = []
     for water, rs in by_water.items():
         rs = sorted(rs, key=lambda r: -(r.get("visibility_m_radiance") or 0))
-        parts = [f"{r['rig']} to {_fmt_vis(r)}" for r in rs]
+        parts = [f"{r['rig']}: {v}" if (v := _fmt_vis(r)).startswith("not found") else f"{r['rig']} to {v}"
+                 for r in rs]
         thr = rs[0]["threshold"] * 100
         out.append(f"In {water} water ({rs[0]['target']}), contrast stays above {thr:g} %: " + ", ".join(parts) + ".")
     return out

@@ -39,6 +39,8 @@ def visibility_table(rows: list[dict], threshold: float) -> list[dict]:
             rng = visibility_range(d[ok], c[ok], threshold=threshold) if ok.sum() >= 2 else float("nan")
             rec[f"visibility_m_{col.split('_')[1]}"] = rng
         rec["sweep_max_m"] = float(max((r["distance_m"] for r in rs if not r.get("extension")), default=np.nan))
+        far = rs[-1].get("contrast_radiance")
+        rec["contrast_at_searched_end"] = float(far) if far is not None else np.nan
         rec["searched_to_m"] = float(d.max())
         rec["c_550_per_m"] = rs[0].get("c_550_per_m")
         out.append(rec)

@@ -48,6 +48,12 @@ __all__ = ["run_study", "pending_cases", "assemble_tables", "read_results", "rea
 EXTENSION_FACTOR = 1.5
 #: At most this many steps beyond the sweep (6 m × 1.5¹² ≈ 780 m).
 MAX_EXTENSION_STEPS = 12
+#: The steps stop when the contrast fell by less than 2 % over the last two steps (distance × 2.25):
+#: a target's contrast falls as exp(−c·r) and nothing else, so a contrast that levels off is not the
+#: target's — a black disk's contrast against the ring of water around it, where the strobes' veil
+#: is brighter or darker than in front of the disk (edge lighting in turbid water), stays at a few
+#: percent however far the disk is.  The visibility is then reported as not found (inf).
+LEVEL_OFF = 0.98
 
 
 def _case_dir(out: Path, spec: StudySpec, case: Case) -> Path:
@@ -78,6 +84,11 @@ def _still_visible(rows: list[dict], threshold: float) -> bool | None:
     return None if not vals else any(v >= threshold for v in vals)
 
 
+def _largest_contrast(rows: list[dict]) -> float:
+    vals = [r.get(k) for r in rows for k in ("contrast_radiance", "contrast_image")]
+    return max((v for v in vals if v is not None), default=0.0)
+
+
 def extension_cases(spec: StudySpec, out: Path) -> tuple[list[Case], list[Case]]:
     """The steps beyond the sweep: (finished extension cases in order, the next ones to compute).
 
@@ -92,9 +103,13 @@ def extension_cases(spec: StudySpec, out: Path) -> tuple[list[Case], list[Case]]
     for cs in groups.values():
         last = max(cs, key=lambda c: c.distance_m)
         rec = _read_record(_case_dir(out, spec, last) / "result.json")
+        seen: list[float] = []
         for _ in range(MAX_EXTENSION_STEPS):
             if rec is None or not _still_visible(rec.get("rows", []), spec.contrast_threshold):
                 break
+            seen.append(_largest_contrast(rec.get("rows", [])))
+            if len(seen) >= 3 and seen[-1] >= LEVEL_OFF * seen[-3]:
+                break  # the contrast no longer falls with distance: it is not the target's (see LEVEL_OFF)
             nxt = replace(last, distance_m=round(last.distance_m * EXTENSION_FACTOR, 6), extension=True)
             rec = _read_record(_case_dir(out, spec, nxt) / "result.json")
             if rec is None:

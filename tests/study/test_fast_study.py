@@ -151,3 +151,25 @@ def test_a_fast_study_checks_itself_against_monte_carlo(tmp_path):
     before = (check_dir / "check.json").stat().st_mtime_ns
     run_study(spec, out, serial=True, progress=False)
     assert (check_dir / "check.json").stat().st_mtime_ns == before
+
+
+def test_a_contrast_that_levels_off_is_not_a_visibility(tmp_path):
+    """Edge-lit black disk in Jerlov 3C: against the ring of water around it the disk keeps a few
+    percent of contrast however far it is (the strobes' veil differs between the two), so the steps
+    beyond the sweep stop when the contrast stops falling, and the report says the range was not found."""
+    from rigsim.study.runner import LEVEL_OFF
+
+    p = fast_study(tmp_path, waters='["jerlov-3C"]', distances="[3.0, 6.0]")
+    p.write_text(p.read_text().replace("twin-strobes-close-to-port", "twin-strobes-edge-lighting"))
+    spec = load_study(p)
+    out = run_study(spec, tmp_path / "out", serial=True, progress=False)
+    rows = _rows(out / "results.csv")
+    ext = [r for r in rows if r["extension"] == "True"]
+    assert 3 <= len(ext) < 12, [r["distance_m"] for r in ext]  # stopped early, by the level-off rule
+    c = [max(float(r["contrast_radiance"]), float(r["contrast_image"])) for r in ext]
+    assert c[-1] >= 0.02 and c[-1] >= LEVEL_OFF * c[-3]
+    (vis,) = _rows(out / "visibility.csv")
+    assert math.isinf(float(vis["visibility_m_radiance"]))
+    from rigsim.report.html import write_report
+
+    assert "not found: the contrast levels off" in write_report(out).read_text()
