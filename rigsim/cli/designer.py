@@ -17,6 +17,8 @@ def run_app(
     rig: str = typer.Option(None, "--rig", help="Rig file to open (inside rigs/ or --workdir)."),
     view: str = typer.Option("server", "--view", help="3-D view rendering: server (images, no GPU needed) or client (WebGL)."),
     open_browser: bool = typer.Option(False, "--open", help="Open a browser tab."),
+    preview_width: int = typer.Option(960, "--preview-width", min=64, max=4096,
+                                      help="Width of the live predicted photograph (px)."),
 ):
     """Open the rig designer: 3-D rig layout, predicted photographs, contrast/SNR/ΔE, side-by-side comparisons."""
     from rigsim.errors import ConfigError
@@ -25,4 +27,4 @@ def run_app(
     if view not in ("server", "client"):
         raise ConfigError(f"unknown view {view!r}", field="--view", allowed="server, client")
     main(host=host, port=port, workdir=str(workdir) if workdir else None, rig=rig, open_browser=open_browser,
-         view=view)
+         view=view, preview_width=preview_width)

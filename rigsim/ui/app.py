@@ -202,8 +202,11 @@ class RigDesigner:
     """State, callbacks and layout of the rig designer on one trame server."""
 
     def __init__(self, server, sandbox: FileSandbox, *, rig_path: str | Path | None = None,
-                 view: str = "server"):
+                 view: str = "server", preview_width: int = PREVIEW.width):
         import pyvista as pv
+
+        #: the live preview's size (``rigsim app --preview-width``)
+        self.preview_quality = dataclasses.replace(PREVIEW, width=int(preview_width))
 
         self.server = server
         self.state = server.state
@@ -722,7 +725,7 @@ class RigDesigner:
                     log.exception("3-D view update failed")
                     self._say(f"3-D view not updated: {exc}", "warning")
             try:
-                pred = await self._predict_cached(doc, rig, cond, label=rig.name)
+                pred = await self._predict_cached(doc, rig, cond, label=rig.name, quality=self.preview_quality)
             except RigsimError as exc:
                 with self.state:
                     self._refuse(None, exc)
@@ -974,7 +977,8 @@ class RigDesigner:
 
 
 def create_app(*, rigs_dir: str | Path | None = None, workdir: str | Path | None = None,
-               rig: str | Path | None = None, name: str = "rigsim", view: str = "server") -> RigDesigner:
+               rig: str | Path | None = None, name: str = "rigsim", view: str = "server",
+               preview_width: int = PREVIEW.width) -> RigDesigner:
     """A :class:`RigDesigner` on a fresh trame server (not started)."""
     from trame.app import get_server
 
@@ -989,7 +993,7 @@ def create_app(*, rigs_dir: str | Path | None = None, workdir: str | Path | None
     rig_path = None
     if rig:
         rig_path = FileSandbox(folders).resolve(str(rig), folder="work" if "work" in folders else "rigs")
-    return RigDesigner(server, FileSandbox(folders), rig_path=rig_path, view=view)
+    return RigDesigner(server, FileSandbox(folders), rig_path=rig_path, view=view, preview_width=preview_width)
 
 
 def is_loopback(host: str) -> bool:
@@ -1041,7 +1045,8 @@ def check_options(*, host: str = "127.0.0.1", port: int = 8080, workdir: str | P
 
 
 def main(*, host: str = "127.0.0.1", port: int = 8080, workdir: str | None = None, rigs_dir: str | None = None,
-         rig: str | None = None, open_browser: bool = False, view: str = "server") -> None:
+         rig: str | None = None, open_browser: bool = False, view: str = "server",
+         preview_width: int = PREVIEW.width) -> None:
     """Start the rig designer and serve it until interrupted.
 
     Listens on 127.0.0.1 unless another ``host`` is asked for (then with a warning).  Before
@@ -1064,7 +1069,7 @@ def main(*, host: str = "127.0.0.1", port: int = 8080, workdir: str | None = Non
     except OSError as exc:
         raise ConfigError(f"cannot listen on {host}:{port}: {exc.strerror or exc}", field="--port",
                           allowed="a free port (e.g. --port 8081)") from None
-    app = create_app(rigs_dir=rigs_dir, workdir=workdir, rig=rig, view=view)
+    app = create_app(rigs_dir=rigs_dir, workdir=workdir, rig=rig, view=view, preview_width=preview_width)
     print(f"rigsim rig designer: http://{host}:{port}/  (folders: {app.sandbox.describe()})", flush=True)
     # timeout=0: serve until stopped (trame's default stops the server 300 s after the last page
     # disconnects, so a closed tab -- or any client that connects and leaves -- would end it)

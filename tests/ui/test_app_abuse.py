@@ -34,7 +34,9 @@ def app(tmp_path_factory):
     (outside / "secret.toml").write_text('[rig]\nname = "outside"\n')
     os.symlink(outside, work / "link-dir")
     os.symlink(outside / "secret.toml", work / "link-file.toml")
-    a = start_app(work)
+    # abuse, not image size, is tested here: a small live preview keeps each edit's work short on a
+    # loaded 2-core machine (the photograph-sized default is tested in test_app_browser.py)
+    a = start_app(work, extra=["--preview-width", "240"])
     a.outside = outside
     yield a
     a.stop()
