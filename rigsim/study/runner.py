@@ -76,15 +76,8 @@ def _read_record(f: Path) -> dict | None:
         return None
 
 
-def _still_visible(rows: list[dict], threshold: float) -> bool | None:
-    """Whether any row (a sensor at one distance) has a contrast at or above ``threshold``;
-    None if none of them has a contrast at all (the target is not resolved)."""
-    vals = [r.get(k) for r in rows for k in ("contrast_radiance", "contrast_image")]
-    vals = [v for v in vals if v is not None]
-    return None if not vals else any(v >= threshold for v in vals)
-
-
 def _largest_contrast(rows: list[dict]) -> float:
+    """The largest contrast (scene radiance or any sensor's image) of a case's rows (0 if none)."""
     vals = [r.get(k) for r in rows for k in ("contrast_radiance", "contrast_image")]
     return max((v for v in vals if v is not None), default=0.0)
 
@@ -105,8 +98,8 @@ def extension_cases(spec: StudySpec, out: Path) -> tuple[list[Case], list[Case]]
         rec = _read_record(_case_dir(out, spec, last) / "result.json")
         seen: list[float] = []
         for _ in range(MAX_EXTENSION_STEPS):
-            if rec is None or not _still_visible(rec.get("rows", []), spec.contrast_threshold):
-                break
+            if rec is None or _largest_contrast(rec.get("rows", [])) < spec.contrast_threshold:
+                break  # no longer visible (or not measurable)
             seen.append(_largest_contrast(rec.get("rows", [])))
             if len(seen) >= 3 and seen[-1] >= LEVEL_OFF * seen[-3]:
                 break  # the contrast no longer falls with distance: it is not the target's (see LEVEL_OFF)
