@@ -215,6 +215,9 @@ class RigDesigner:
         self.view_mode = view
         self.pool = ThreadPoolExecutor(max_workers=1, thread_name_prefix="rigsim-ui")
         self.gen = 0
+        #: the comparison's own generation: a new comparison (a click, a changed comparison setting)
+        #: supersedes the one in flight without invalidating the preview or a converged render
+        self._compare_gen = 0
         self._wake: asyncio.Event | None = None
         self._cancel_render = threading.Event()
         self._render_task = None
@@ -742,7 +745,8 @@ class RigDesigner:
             with self.state:
                 self._publish(pred, converged=False)
             if self.state.compare_auto:
-                await self._compare(gen)
+                self._compare_gen += 1
+                await self._compare(gen, self._compare_gen)
 
     def _publish(self, pred: Prediction, *, converged: bool):
         s = self.state
@@ -791,7 +795,10 @@ class RigDesigner:
             jobs.append((f"B: {docb.name}", docb, docb.rig(), cond))
         return jobs
 
-    async def _compare(self, gen: int):
+    async def _compare(self, gen: int, token: int):
+        """Fill the comparison for edit generation ``gen``; a newer edit or comparison (``token``)
+        supersedes it. Whoever stops a comparison leaves ``compare_busy`` true only while a newer
+        comparison owns it."""
         s = self.state
         try:
             jobs = self._compare_jobs(self.cond)
@@ -799,14 +806,34 @@ class RigDesigner:
             with s:
                 s.compare_info = f"Refused: {exc}"
                 s.compare_cells = []
+                if token == self._compare_gen:
+                    s.compare_busy = False
             return
         with s:
             s.compare_busy = True
             s.compare_info = "computing…"
+        try:
+            await self._compare_cells(jobs, gen, token)
+        except Exception as exc:  # a failing comparison must not stop the app or leave it busy
+            log.exception("comparison failed")
+            with s:
+                s.compare_info = f"Comparison failed: {type(exc).__name__}: {exc}"
+        finally:
+            if token == self._compare_gen and s.compare_busy:
+                with s:
+                    s.compare_busy = False
+                    if s.compare_info == "computing…":
+                        s.compare_info = "stopped: the setup changed (press Compare to fill it in again)"
+
+    async def _compare_cells(self, jobs, gen: int, token: int):
+        s = self.state
+
+        def current() -> bool:
+            return gen == self.gen and token == self._compare_gen
         cells = []
         t0 = time.perf_counter()
         for label, doc, rig, cond in jobs:
-            if gen != self.gen:
+            if not current():
                 return
             try:
                 p = await self._predict_cached(doc, rig, cond, label, COMPARE)
@@ -815,7 +842,7 @@ class RigDesigner:
                 continue
             cells.append({"title": label, "src": png_data_url(p.srgb), "rows": metric_rows(p),
                           "exposure": exposure_text(p), "error": ""})
-            if gen == self.gen:
+            if current():
                 with s:
                     s.compare_cells = list(cells)
         # contrast-versus-distance: one series per water / rig (one for "distances")
@@ -823,7 +850,7 @@ class RigDesigner:
         series = [{"label": lab, "points": []} for lab, *_ in series_jobs]
         for si, (label, doc, rig, cond) in enumerate(series_jobs):
             for d in CURVE_DISTANCES_M:
-                if gen != self.gen:
+                if not current():
                     return
                 key = (self._rig_key(doc), cond.replace(distance_m=1.0, sensor="-", exposure="auto"), d)
                 if key not in self._cache_curve:
@@ -835,19 +862,18 @@ class RigDesigner:
                 pt = self._cache_curve[key]
                 if pt is not None:
                     series[si]["points"].append(pt)
-            if gen == self.gen:
+            if current():
                 with s:
                     s.compare_plot = curve_svg(series, self.cond.distance_m)
-        if gen == self.gen:
+        if current():
             with s:
                 s.compare_busy = False
                 s.compare_info = f"{len(cells)} images, {sum(len(x['points']) for x in series)} curve points · " \
                                  f"{time.perf_counter() - t0:.1f} s"
 
     def compare_now(self):
-        self.gen += 1
-        gen = self.gen
-        asyncio.ensure_future(self._compare(gen))
+        self._compare_gen += 1
+        asyncio.ensure_future(self._compare(self.gen, self._compare_gen))
 
     def render_converged(self, render_quality=None):
         self._clicked(render_quality=render_quality)

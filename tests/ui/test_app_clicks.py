@@ -170,3 +170,46 @@ def test_on_plane():
     np.testing.assert_allclose(hit, [2.5, 0, 0.5])
     assert on_plane([0, 0, -2], [1, 0, -2], [0, 0, 0.5], [0, 0, 1]) is None  # parallel
     assert on_plane([0, 0, 1], [0, 0, 2], [0, 0, 0.5], [0, 0, 1]) is None  # behind the eye
+
+
+def test_a_comparison_started_while_the_preview_is_computed_leaves_neither_busy(app, monkeypatch):
+    """Pressing Compare (or changing a comparison setting) while the live preview is being
+    computed used to bump the edit generation: the preview in flight was then dropped as stale
+    and ``preview_busy`` stayed true until the next edit (seen as abuse-test timeouts on a slow
+    machine); a converged render finishing then was discarded as 'for an older setup'."""
+    import asyncio
+    import threading
+
+    import rigsim.ui.app as appmod
+
+    real = appmod.predict
+    started, release = threading.Event(), threading.Event()
+
+    def slow_predict(*a, **kw):
+        if kw.get("quality") is app.preview_quality:
+            started.set()
+            release.wait(30)
+        return real(*a, **kw)
+
+    monkeypatch.setattr(appmod, "predict", slow_predict)
+    app.state.compare_auto = False
+
+    async def go():
+        worker = asyncio.ensure_future(app._worker())
+        try:
+            app._changed()  # an edit: the preview starts
+            assert await asyncio.get_running_loop().run_in_executor(None, started.wait, 30)
+            app.compare_now()  # Compare pressed while the preview is computed
+            await asyncio.sleep(0.2)
+            release.set()
+            t0 = time.time()
+            while (app.state.preview_busy or app.state.compare_busy) and time.time() - t0 < 60:
+                await asyncio.sleep(0.1)
+            return app.state.preview_busy, app.state.compare_busy, app.state.preview_gen, app.gen
+        finally:
+            worker.cancel()
+
+    preview_busy, compare_busy, shown_gen, gen = asyncio.run(go())
+    assert not preview_busy and not compare_busy
+    assert shown_gen == gen  # the preview shown is the current edit's
+    assert app.state.compare_cells and all(not c["error"] for c in app.state.compare_cells)

@@ -97,6 +97,16 @@ def start_app(workdir: Path, *, host: str | None = None, extra: list[str] = (), 
             time.sleep(0.3)
 
 
+def _busy_processes() -> str:
+    """``ps`` of the processes using the most CPU (to tell a slow server from a loaded machine)."""
+    try:
+        r = subprocess.run(["ps", "-eo", "pid,ppid,pcpu,rss,etime,args", "--sort=-pcpu"], capture_output=True,
+                           text=True, timeout=10)
+        return "\n".join(r.stdout.splitlines()[:12])
+    except (OSError, subprocess.SubprocessError) as e:
+        return f"(ps failed: {e})"
+
+
 class Page:
     """One page's websocket session (async; use inside ``asyncio.run``)."""
 
@@ -221,4 +231,7 @@ class Page:
                 if not st2.get(key) and not st2.get("compare_busy"):
                     return st2
             await asyncio.sleep(0.3)
-        raise TimeoutError(f"{key} still true after {timeout:g} s")
+        busy = [k for k in (key, "compare_busy") if st.get(k)]
+        raise TimeoutError(f"{' and '.join(busy) or key} still true after {timeout:g} s\n"
+                           f"--- the app's log (end) ---\n{self.app.log_text()[-3000:]}\n"
+                           f"--- busy processes ---\n{_busy_processes()}")
