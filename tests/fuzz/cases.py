@@ -60,8 +60,11 @@ ROOT = Path(__file__).resolve().parents[2]
 OK, REFUSED, USAGE = "ok", "refused", "usage error"
 TRACEBACK, BAD_MESSAGE, NAN, HANG, MEMORY, WRONG_EXIT = ("traceback", "bad message", "nan", "hang", "memory",
                                                          "wrong exit")
+#: The process running the case died (a segfault, an abort, the kernel's OOM killer): only the
+#: soak sees it, since it runs cases in a worker process (``tools/soak.py``).
+CRASH = "crash"
 GOOD = (OK, REFUSED, USAGE)
-BUGS = (TRACEBACK, BAD_MESSAGE, NAN, HANG, MEMORY, WRONG_EXIT)
+BUGS = (TRACEBACK, BAD_MESSAGE, NAN, HANG, MEMORY, WRONG_EXIT, CRASH)
 #: Growth of the resident memory during one case that counts as a blow-up.
 MEMORY_LIMIT_BYTES = 3 << 30
 #: Wavelengths of the tiny renders that check accepted input (nm).
