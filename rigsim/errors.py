@@ -12,6 +12,15 @@ from collections.abc import Iterable
 from pathlib import Path
 
 
+def one_line(text: str) -> str:
+    """``text`` with line breaks and other control characters written as escapes (``\\n``, ``\\x1b``):
+    an error names what a user wrote — a key, a file name — and may quote one that holds a newline,
+    but is always printed as one line."""
+    if text.isprintable():
+        return text
+    return "".join(ch if ch.isprintable() or ch == " " else repr(ch)[1:-1] for ch in text)
+
+
 class RigsimError(Exception):
     """Base class of all errors rigsim raises on purpose."""
 
@@ -48,7 +57,7 @@ class ConfigError(RigsimError, ValueError):
         elif self.field:
             where = f"{self.field}: "
         tail = f" (allowed: {allowed})" if allowed else ""
-        super().__init__(f"{where}{message}{tail}")
+        super().__init__(one_line(f"{where}{message}{tail}"))
 
 
 class SpectrumRangeError(ConfigError):
@@ -79,7 +88,7 @@ class OutputError(RigsimError, OSError):
             self.errno = None
             what = str(exc)
         self.reason = what
-        RigsimError.__init__(self, f"{self.path}: cannot write: {what}")
+        RigsimError.__init__(self, one_line(f"{self.path}: cannot write: {what}"))
 
     def __str__(self) -> str:
         return self.args[0]

@@ -190,3 +190,14 @@ def test_a_table_that_is_not_a_table(tmp_path):
 def test_missing_table(tmp_path):
     one_line(load_water, write(tmp_path, "water", "# nothing\n"), ["water", "missing required field"])
     one_line(load_study, write(tmp_path, "study", STUDY.split("[sweep]")[0]), ["sweep", "missing required field"])
+
+
+@pytest.mark.parametrize("key", ['"a\\nb"', '"tab\\there"', '"esc\\u001b[31m"', '"cr\\rx"'])
+def test_a_key_holding_a_line_break_or_control_character_is_still_one_line(tmp_path, key):
+    # found by the soak (seed 2027): an unknown key with a newline in it made a two-line message
+    p = tmp_path / "w.toml"
+    p.write_text(f'[water]\na_per_m = 0.2\nb_per_m = 0.8\n{key} = 1.0\n')
+    with pytest.raises(ConfigError) as e:
+        load_water(p)
+    text = str(e.value)
+    assert text.isprintable() and "\n" not in text and str(p) in text and "unknown key" in text, text

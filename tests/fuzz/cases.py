@@ -863,19 +863,34 @@ def _materialize(argv: list[str], ws: Workspace, d: Path) -> list[str]:
     return [sub(t) for t in argv]
 
 
+#: Samples a fuzzed ``rigsim dataset`` makes at most (see :func:`offline_stubs`).
+DATASET_CAP = 4
+
+
 @contextlib.contextmanager
 def offline_stubs():
     """Commands that would serve forever, download, or run for minutes do their checks only.
 
     ``rigsim app``: the server is not started (its options are checked as before serving);
-    ``rigsim sample-raw``: nothing is downloaded; ``rigsim demo``: the study is not run.
+    ``rigsim sample-raw``: nothing is downloaded; ``rigsim demo``: the study is not run;
+    ``rigsim dataset --n N`` with a valid N above :data:`DATASET_CAP` makes the first
+    :data:`DATASET_CAP` samples (65 535 samples take as long as asked for, with progress: long
+    work by request, not a hang; the range check of N runs as before).
     """
+    import rigsim.dataset as dataset
     import rigsim.sensor.samples as samples
     import rigsim.study as study
     import rigsim.ui.app as ui_app
+    from rigsim.dataset.writer import MAX_SAMPLES
     from rigsim.errors import ConfigError
 
-    saved = (ui_app.main, samples.fetch_sample_raw, study.run_study)
+    saved = (ui_app.main, samples.fetch_sample_raw, study.run_study, dataset.run_dataset)
+    real_run_dataset = dataset.run_dataset
+
+    def capped_run_dataset(spec, n, out, **kw):
+        if isinstance(n, int) and not isinstance(n, bool) and DATASET_CAP < n <= MAX_SAMPLES:
+            n = DATASET_CAP
+        return real_run_dataset(spec, n, out, **kw)
 
     def fake_main(**kw):
         check = getattr(ui_app, "check_options", None)
@@ -894,11 +909,12 @@ def offline_stubs():
             raise _Stop()
         return real_run_study(spec, out, **kw)
 
-    ui_app.main, samples.fetch_sample_raw, study.run_study = fake_main, fake_fetch, fake_run_study
+    ui_app.main, samples.fetch_sample_raw, study.run_study, dataset.run_dataset = (
+        fake_main, fake_fetch, fake_run_study, capped_run_dataset)
     try:
         yield
     finally:
-        ui_app.main, samples.fetch_sample_raw, study.run_study = saved
+        ui_app.main, samples.fetch_sample_raw, study.run_study, dataset.run_dataset = saved
 
 
 class _Stop(Exception):

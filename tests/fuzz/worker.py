@@ -29,6 +29,7 @@ def _kind(fam: str, case) -> str:
 
 def _serve(conn, root: str, timeout: float, memory_gb: float, module: str) -> None:
     """The worker process: run the cases it is sent, one at a time, and send back the results."""
+    os.setsid()  # its own process group: a kill takes the local dask cluster a case started with it
     os.chdir(ROOT)
     resource.setrlimit(resource.RLIMIT_CORE, (0, 0))  # a crash is counted, not dumped into the checkout
     if memory_gb:
@@ -69,8 +70,8 @@ class CaseWorker:
         parent, child = self.ctx.Pipe()
         self.started += 1
         root = self.root / f"worker-{self.started:03d}"
-        self.proc = self.ctx.Process(target=_serve, args=(child, str(root), self.timeout, self.memory_gb, self.module),
-                                     daemon=True)
+        # not a daemon: a case may start a local dask cluster, whose nanny processes a daemon cannot have
+        self.proc = self.ctx.Process(target=_serve, args=(child, str(root), self.timeout, self.memory_gb, self.module))
         self.proc.start()
         child.close()
         self.conn = parent
@@ -81,10 +82,10 @@ class CaseWorker:
         if self.proc is None:
             return
         if kill and self.proc.is_alive():
-            self.proc.kill()
+            self._kill_group()
         self.proc.join(30)
         if self.proc.is_alive():
-            self.proc.kill()
+            self._kill_group()
             self.proc.join()
         self.conn.close()
         self.proc = self.conn = None
@@ -114,6 +115,14 @@ class CaseWorker:
         return fz.Result(_kind(fam, case), fz.HANG,
                          f"no answer {self.timeout + self.grace:g} s after the start (the case's own time limit "
                          f"did not stop it; the worker was killed)", time.perf_counter() - t0)
+
+    def _kill_group(self) -> None:
+        import signal
+
+        try:
+            os.killpg(self.proc.pid, signal.SIGKILL)
+        except (ProcessLookupError, PermissionError):
+            self.proc.kill()
 
     def close(self) -> None:
         if self.proc is not None and self.proc.is_alive():
