@@ -153,6 +153,11 @@ def _water_at(scene: Scene, wl: np.ndarray, lam: np.ndarray, cutoff_rad: float, 
     return _Water(c_sub, b_sub, F_sub, c, b, w @ F_k, (b[:, None] * w).T, comps, sa)
 
 
+#: ψ_c with multiple scattering (deg): the analytic model carries the paths with no scattering by
+#: more than 30° but one (direct and small-angle blurred light, quasi-single backscatter), the
+#: tracer the rest.  Measured (``rigsim.preview.multiple`` docstring, ``classes="A"``): at 30° the
+#: quasi-single-scattering veil equals the traced paths of its class to 0.8 %; at 90° it is 19 % high.
+MS_CUTOFF_DEG = 30.0
 def _sub_band_wavelengths(wl: np.ndarray, bw: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
     """(B, n) Gauss–Legendre nodes inside each band and their weights (summing to 1)."""
     x, w = np.polynomial.legendre.leggauss(n)
@@ -162,10 +167,11 @@ def _sub_band_wavelengths(wl: np.ndarray, bw: np.ndarray, n: int) -> tuple[np.nd
 def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
                    wavelengths_nm: Sequence[float] = DEFAULT_WAVELENGTHS_NM, bandwidth_nm=None,
                    layers: Sequence[str] = ("range_m", "clear", "object_id"), split: bool = False,
-                   shadows: bool = False, forward_scatter: bool = True, forward_cutoff_deg: float = 90.0,
+                   shadows: bool = False, forward_scatter: bool = True, forward_cutoff_deg: float | None = None,
                    sub_bands: int = 3, pixel_samples: int = 1, backscatter_grid: int | None = 32,
                    backscatter_nodes: int = 64, multiple: bool = False, photons: int | None = None,
-                   ms_grid: int | None = None, spp: int | None = None, seed: int | None = None,
+                   ms_grid: int | None = None, ms_truncate_deg: float | None = None, spp: int | None = None,
+                   seed: int | None = None,
                    max_depth: int | None = None, progress: ProgressCallback | None = None,
                    threads: int | None = None) -> SpectralImage:
     """Fast semi-analytic image of a :class:`~rigsim.scene.types.Scene` (see module docstring).
@@ -187,7 +193,13 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
         Include the small-angle forward-scattered component (False: the classical
         direct + single-backscatter model with ``e^{−c·}`` on every leg).
     forward_cutoff_deg
-        Scattering by less than this angle is treated as forward scattering (deg, 0–90).
+        Scattering by less than this angle is treated as forward scattering (deg, 0–90; None:
+        :data:`MS_CUTOFF_DEG` with multiple scattering, 90 without).
+    multiple, photons, ms_grid, ms_truncate_deg
+        Add the multiply scattered light of the lights (:mod:`rigsim.preview.multiple`; off by
+        default: its photon noise is still too high for contrasts, see that module), photons per
+        light group (default :data:`~rigsim.preview.multiple.DEFAULT_PHOTONS`), its grid and
+        δ-truncation angle.
     sub_bands
         Gauss–Legendre points per band for the direct component (1: band centres).
     pixel_samples
@@ -198,9 +210,11 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
         computed and then interpolated (None: every pixel).
     backscatter_nodes
         Quadrature nodes along each ray.
-    spp, seed, max_depth
-        Accepted for call compatibility with :func:`rigsim.render.render` and ignored
-        (the preview is deterministic and has no sampling).
+    spp, max_depth
+        Accepted for call compatibility with :func:`rigsim.render.render` and ignored.
+    seed
+        Seed of the multiply scattered light's photons (None: 0); the image is deterministic, and
+        without multiple scattering it has no sampling at all.
     progress
         Called as ``progress(fraction_done, message)``.
     threads
@@ -231,6 +245,8 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
     pixel_samples = check_int("pixel_samples", pixel_samples, 1, 16)
     backscatter_nodes = check_int("backscatter_nodes", backscatter_nodes, 8, 4096)
     threads = default_threads() if threads is None else check_int("threads", threads, 1, 1024)
+    if forward_cutoff_deg is None:
+        forward_cutoff_deg = MS_CUTOFF_DEG if multiple else 90.0
     if not 0.0 < float(forward_cutoff_deg) <= 90.0:
         raise ConfigError(f"forward cut-off must be in (0, 90] deg, got {forward_cutoff_deg}",
                           field="forward_cutoff_deg", allowed="0 < angle <= 90")
@@ -260,6 +276,7 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
     lit = [l for l in scene.lights if np.any(np.asarray(l.axial_intensity, float) > 0)]
     shape = (height, width, B)
     results: dict[tuple[str, str], np.ndarray] = {}
+    ms_info: dict[str, dict] = {}
 
     with no_hugepage_advice(), thread_map(threads) as pmap:
         view = _view(scene, surf, width, height, pixel_samples, n_out, [l.position_m for l in lit], pmap)
@@ -284,7 +301,10 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
                 ms = trace_multiple(scene, surf, lights, wl, c=water.c, b=water.b, kappa_cam=kap, tables=water.components,
                                     weights=water.components.weights_at(wl), width=width, height=height,
                                     cutoff_rad=cutoff, photons=photons or DEFAULT_PHOTONS, grid=ms_grid or DEFAULT_GRID,
+                                    truncate_rad=None if ms_truncate_deg is None else np.radians(ms_truncate_deg),
                                     seed=0 if seed is None else int(seed))
+                ms_info[gname] = {"photons": ms.photons, "seconds": round(ms.seconds, 3),
+                                  "relative_noise": [float(x) for x in ms.relative_noise]}
             # the target lit by the scene's daylight field (as the renderer: sun beam and diffuse field; no
             # forward-scattered halo of it, the renderer's daylight transport has none) and its path radiance
             day = _Daylight(scene_daylight(scene, req.band_lo_nm, req.band_hi_nm), wl, surf) if has_day else None
@@ -346,7 +366,8 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
         "preview": {"forward_scatter": forward, "forward_cutoff_deg": float(forward_cutoff_deg),
                     "shadows": bool(shadows), "sub_bands": sub_bands, "pixel_samples": pixel_samples,
                     "backscatter_grid": backscatter_grid, "backscatter_nodes": backscatter_nodes,
-                    "threads": threads, "ignored": {"spp": spp, "seed": seed, "max_depth": max_depth}},
+                    "threads": threads, "multiple_scattering": bool(multiple), "multiple": ms_info,
+                    "ignored": {"spp": spp, "max_depth": max_depth}},
     }
     meta["scene_hash"] = hashlib.sha256(json.dumps(
         {k: meta[k] for k in ("water", "camera", "lights", "targets")}, sort_keys=True,
@@ -630,6 +651,10 @@ class _Group:
             full[...] = back
         else:
             self._backscatter(y0, y1, full)
+        if self.ms is not None:  # light reflected by a target, then scattered into the camera
+            v_ = self.view
+            C_, R_ = np.meshgrid(v_.cols, v_.rows[y0:y1])
+            full += self.ms.veil_at(C_, R_, v_.range_m[y0:y1].astype(float), surfaces=True)
         self._put(full, y0, y1, hits, direct + scattered, add=True)
         if self.clear is not None:
             self._put(self.clear[y0:y1], y0, y1, hits, clear)
@@ -736,7 +761,8 @@ class _Group:
         return clear, direct, scattered, src
 
     def _backscatter(self, y0: int, y1: int, back: np.ndarray) -> None:
-        """``back`` (rows, W, B) = backscatter of the lights + multiply scattered veil + daylight path radiance."""
+        """``back`` (rows, W, B) = backscatter of the lights + multiply scattered veil (paths that met no
+        target, as the renderer's ``backscatter`` layer) + daylight path radiance."""
         v = self.view
         back[...] = 0.0
         if self.grid is None and self.ms is None and self.day is None:

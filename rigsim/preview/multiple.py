@@ -66,12 +66,26 @@ __all__ = ["MultipleScattering", "trace_multiple", "DEFAULT_PHOTONS", "DEFAULT_G
 #: Photons per light group (all bands at once).
 DEFAULT_PHOTONS = 200_000
 #: Low-resolution grid along the longer image side.
-DEFAULT_GRID = 48
+DEFAULT_GRID = 16
 #: Range bins (logarithmic) of the veil.
 N_RANGE_BINS = 24
 #: Texture cells per surface side.
 TEXTURE = 8
+#: Wavelengths the photons carry (evenly spaced over the image's bands; the result is interpolated
+#: linearly to every band, per light and per unit of its emitted power, then times the light's own
+#: spectrum).  The multiply scattered light is the water's transport, smooth in wavelength (the
+#: absorption and scattering spectra are; the lamp's spectrum, which need not be, is applied at the
+#: full band resolution afterwards): 8 nodes over 400–700 nm are 43 nm apart.
+SPECTRAL_NODES = 8
 _MAX_BOUNCES = 400
+#: The shell in front of the port, out to this many port radii (``port_reach_m``), where the class-B
+#: source is taken as uniform along each pixel's ray: a scattering there counts with the shell's
+#: mean ``1/s²``, ``3 (s_n − s_0)/(s_n³ − s_0³)``, instead of its own.  The collision estimator's
+#: ``1/s²`` is unbounded next to the port (11.7 % of the class-B veil of an edge-lit Jerlov 3C scene
+#: came from the first 4 cm, in a few photons: 9 % noise at 200 000 photons, and contrasts of a black
+#: disk that changed by 2–5 % with the seed); the light scattered there by more than 30° after
+#: another wide-angle scattering is smooth on that scale.
+NEAR_SHELL_REACHES = 4.0
 
 
 @dataclass(frozen=True, eq=False)
@@ -82,7 +96,11 @@ class MultipleScattering:
     ----------
     veil_cum
         (rows, cols, n_range + 1, B) cumulative veil radiance up to each range-bin edge,
-        W/(m² sr nm) (or J/(m² sr nm) per flash for strobes).
+        W/(m² sr nm) (or J/(m² sr nm) per flash for strobes), of the paths that met no surface:
+        water-scattered light, what the renderer's ``backscatter`` layer (targets black) holds.
+    veil_surf_cum
+        The same of the paths that met a surface before their last scattering (light reflected by
+        a target, then scattered into the camera): in the image, not in the ``backscatter`` layer.
     range_edges_m
         (n_range + 1,) range from the entrance pupil of the bin edges (m).
     cell_col, cell_row
@@ -97,6 +115,7 @@ class MultipleScattering:
     """
 
     veil_cum: np.ndarray
+    veil_surf_cum: np.ndarray
     range_edges_m: np.ndarray
     cell_col: np.ndarray
     cell_row: np.ndarray
@@ -106,9 +125,11 @@ class MultipleScattering:
     vertices: int
     seconds: float
 
-    def veil_at(self, col: np.ndarray, row: np.ndarray, range_m: np.ndarray) -> np.ndarray:
-        """Veil radiance (…, B) at full-resolution pixels ``(col, row)`` up to their range (inf: all)."""
-        R, C, M, B = self.veil_cum.shape
+    def veil_at(self, col: np.ndarray, row: np.ndarray, range_m: np.ndarray, *, surfaces: bool = False) -> np.ndarray:
+        """Veil radiance (…, B) at full-resolution pixels ``(col, row)`` up to their range (inf: all):
+        of the paths that met no surface (``surfaces=False``) or of those that did (``True``)."""
+        cum = self.veil_surf_cum if surfaces else self.veil_cum
+        R, C, M, B = cum.shape
 
         def idx(x, nodes):
             k = np.clip(np.searchsorted(nodes, x, side="right") - 1, 0, len(nodes) - 2)
@@ -121,7 +142,7 @@ class MultipleScattering:
         x = np.log(np.clip(np.where(np.isfinite(range_m), range_m, self.range_edges_m[-1]),
                            self.range_edges_m[0], self.range_edges_m[-1]))
         js, fs = idx(x, lr)
-        flat = self.veil_cum.reshape(R * C * M, B)
+        flat = cum.reshape(R * C * M, B)
         out = 0.0
         ic1 = np.minimum(ic + 1, C - 1)
         ir1 = np.minimum(ir + 1, R - 1)
@@ -188,8 +209,10 @@ def _rotate(d: np.ndarray, cos_t: np.ndarray, phi: np.ndarray) -> np.ndarray:
     return (cos_t[:, None] * d + (sin_t * np.cos(phi))[:, None] * e1 + (sin_t * np.sin(phi))[:, None] * e2)
 
 
-def _sample_phase(tables: PhaseTables, W: np.ndarray, hero: np.ndarray, rng) -> np.ndarray:
-    """cos ψ for each photon from its hero band's phase function (component, cell, position in v)."""
+def _sample_phase(tables: PhaseTables, W: np.ndarray, hero: np.ndarray, rng, cdfs: np.ndarray | None = None) -> np.ndarray:
+    """cos ψ for each photon from its hero band's phase function (component, cell, position in v);
+    ``cdfs`` (K, cells + 1): the components' cumulative cell masses (default the tables')."""
+    cdfs = tables.cdfs if cdfs is None else cdfs
     n = hero.size
     w = W[hero]  # (n, K)
     cw = np.cumsum(w, axis=1)
@@ -201,7 +224,8 @@ def _sample_phase(tables: PhaseTables, W: np.ndarray, hero: np.ndarray, rng) -> 
     for j in range(tables.n_components):
         m = k == j
         if np.any(m):
-            cell[m] = np.minimum(np.searchsorted(tables.cdfs[j], uc[m], side="right") - 1, tables.grid.n_cells - 1)
+            cell[m] = np.minimum(np.searchsorted(cdfs[j], uc[m], side="right") - 1, tables.grid.n_cells - 1)
+    # a cell of zero mass is never drawn (u falls on the next edge)
     v0, v1 = tables.v_edges[cell], tables.v_edges[cell + 1]
     return 1.0 - (v0 + rng.random(n) * (v1 - v0))
 
@@ -209,7 +233,9 @@ def _sample_phase(tables: PhaseTables, W: np.ndarray, hero: np.ndarray, rng) -> 
 def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.ndarray, *, c: np.ndarray,
                    b: np.ndarray, kappa_cam: np.ndarray, tables: PhaseTables, weights: np.ndarray, width: int, height: int,
                    cutoff_rad: float, photons: int = DEFAULT_PHOTONS, grid: int = DEFAULT_GRID, seed: int = 0,
-                   batches: int = 4, classes: str = "B") -> MultipleScattering:
+                   batches: int = 4, classes: str = "B",
+                   spectral_nodes: int | None = SPECTRAL_NODES,
+                   truncate_rad: float | None = None) -> MultipleScattering:
     """Class-B light of one group of lights (see module docstring).
 
     Parameters
@@ -231,6 +257,16 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
         ψ_c of the analytic model's forward scattering.
     photons, grid, seed, batches
         Photons in all, cells along the longer image side, seed, independent batches for the noise.
+    spectral_nodes
+        Wavelengths the photons carry (:data:`SPECTRAL_NODES`; None or ≥ the bands: every band).
+    truncate_rad
+        Scatterings by less than this angle (≤ ψ_c; default ψ_c) are taken as no scattering on the
+        photons' way (class B only): the flights see ``c − b F_t`` and ``b (1 − F_t)``, the phase
+        function without its forward cone, renormalised (δ-scaling: Wiscombe 1977; Joseph, Wiscombe
+        & Weinman 1976).  The splat towards the camera (wide angles) is unchanged, ``b p``.  It cuts
+        the collisions per photon several-fold in forward-peaked water (most of ``b`` is within a few
+        degrees) at the cost of the small-angle spread of the light *before* its first wide-angle
+        scattering, which the smooth, low-resolution class-B light does not resolve; 0: exact.
     classes
         ``"B"``: class B (see module docstring); ``"A"``: the analytic model's own paths, estimated the
         same way (a check of the analytic model); ``"all"``: every path, with the exact camera leg
@@ -245,7 +281,26 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
     only_a = classes == "A"  # (a check of the analytic model) its own paths, estimated the same way
     t0 = time.perf_counter()
     rng = np.random.default_rng(np.random.SeedSequence([int(seed), 0x6D55]))
+    wl_bands = np.asarray(wavelength_nm, float)
+    B_out = len(wl_bands)
+    wavelength_nm, to_bands = _spectral_nodes(wl_bands, spectral_nodes)
+    c, b, kappa_cam = (_at_nodes(x, wl_bands, wavelength_nm) for x in (c, b, kappa_cam))
+    weights = np.stack([_at_nodes(weights[:, k], wl_bands, wavelength_nm) for k in range(weights.shape[1])], axis=1)
+    weights = weights / np.maximum(weights.sum(axis=1, keepdims=True), 1e-300)
     B = len(wavelength_nm)
+    masses = tables.masses
+    if classes == "B" and (truncate_rad is None or truncate_rad > 0):
+        psi_t = min(float(cutoff_rad if truncate_rad is None else truncate_rad), float(cutoff_rad))
+        cone = tables.forward_cells(psi_t)
+        Fk = masses[:, cone].sum(axis=1)  # (K,)
+        F_t = weights @ Fk  # (B,)
+        c = c - b * F_t
+        b = b * (1.0 - F_t)
+        weights = weights * (1.0 - Fk)[None, :]
+        weights = weights / np.maximum(weights.sum(axis=1, keepdims=True), 1e-300)
+        masses = np.where(cone[None, :], 0.0, masses) / np.maximum(1.0 - Fk, 1e-300)[:, None]
+    cdfs = np.concatenate([np.zeros((len(masses), 1)), np.cumsum(masses, axis=1)], axis=1)
+    cdfs[:, -1] = 1.0
     cam = scene.camera
     n_out = outside_index(scene)
     pupil = np.asarray(cam.position_m, float)
@@ -254,154 +309,177 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
     cols, rows = max(1, int(np.ceil(width / step))), max(1, int(np.ceil(height / step)))
     omega = _cell_solid_angles(cam, width, height, cols, rows, n_out)
     r_max = 30.0 / max(float(np.min(c)), 1e-6)
+    s_near = NEAR_SHELL_REACHES * reach
+    inv_s2_near = 3.0 * (s_near - reach) / (s_near ** 3 - reach ** 3)  # mean 1/s² over the shell (1/m²)
     edges = np.geomspace(reach, max(r_max, 2 * reach), N_RANGE_BINS + 1)
     S = len(surf)
-    refl = surf.reflectance(wavelength_nm)  # (S+1, B)
+    refl = np.stack([_at_nodes(r, wl_bands, wavelength_nm) for r in surf.reflectance(wl_bands)])  # (S+1, B)
     cell_area = _cell_areas(surf) if S else np.zeros(0)
-    dens = tables.densities  # (K, cells)
+    dens = masses / tables.grid.solid_angles[None, :]  # (K, cells), 1/sr
 
     power = []
     for light in lights:
-        I = np.interp(wavelength_nm, np.asarray(light.wavelength_nm, float), np.asarray(light.axial_intensity, float))
+        I = np.interp(wl_bands, np.asarray(light.wavelength_nm, float), np.asarray(light.axial_intensity, float))
         power.append(I * beam_solid_angle_sr(light.beam))
-    power = np.array(power)  # (L, B): W/nm (or J/nm)
-    veil = np.zeros((batches, rows, cols, N_RANGE_BINS, B))
-    irr = np.zeros((batches, max(S, 1), TEXTURE, TEXTURE, B))
+    power = np.array(power).reshape(len(lights), B_out)  # (L, bands): W/nm (or J/nm)
+    L = max(1, len(lights))
+    # per light and per unit of its power at every node; the lights' spectra are applied in _result
+    veil = np.zeros((batches, L, rows, cols, N_RANGE_BINS, B))
+    veil_s = np.zeros_like(veil)
+    irr = np.zeros((batches, L, max(S, 1), TEXTURE, TEXTURE, B))
     n_vert = 0
     if len(lights) == 0 or not np.any(power > 0) or photons <= 0:
-        return _result(veil, irr, edges, cols, rows, width, height, 0, 0, t0)
+        return _result(veil, veil_s, irr, np.zeros((L, B_out)), to_bands, edges, cols, rows, width, height, 0, 0, t0)
     q = power.mean(axis=1)
     q = q / q.sum()
     per_batch = max(1, photons // batches)
     cutoff_cos = float(np.cos(cutoff_rad))
-    for bi in range(batches):
-        n = per_batch
-        li = rng.choice(len(lights), size=n, p=q)
-        pos = np.empty((n, 3))
-        dirs = np.empty((n, 3))
-        F = np.empty((n, B))
-        for l, light in enumerate(lights):
-            m = li == l
-            k = int(m.sum())
-            if not k:
-                continue
-            d_loc, _ = sample_beam_direction(light.beam, rng.random(k), rng.random(k))
-            dirs[m] = local_to_world(light.aim, d_loc)
-            pos[m] = np.asarray(light.position_m, float)
-            F[m] = power[l] / (q[l] * per_batch)
-        P = np.ones((n, B))
-        hero = rng.integers(0, B, n)
-        n_sig = np.zeros(n, np.int32)  # significant events so far: scatterings by more than ψ_c, surfaces
-        alive = np.ones(n, bool)
-        f_ref = F.max(axis=1).copy()
-        for _ in range(_MAX_BOUNCES):
-            idx = np.flatnonzero(alive)
-            if idx.size == 0:
-                break
-            p, d = pos[idx], dirs[idx]
-            if S:
-                t_s, oid = cast_rays(surf, p, d)
-            else:
-                t_s, oid = np.full(idx.size, np.inf), np.zeros(idx.size, np.int32)
-            ch = c[hero[idx]]
-            t = -np.log1p(-rng.random(idx.size)) / ch
-            med = t < t_s
-            # ---- free flight: weights for every band, densities for every possible hero
-            tt = np.where(med, t, t_s)[:, None]
-            T = np.exp(-c[None, :] * np.where(np.isfinite(tt), tt, 0.0))
-            Fi, Pi = F[idx], P[idx]
-            Fi = Fi * np.where(med[:, None], b[None, :] * T, T)
-            Pi = Pi * np.where(med[:, None], c[None, :] * T, T)
-            norm = Pi.mean(axis=1, keepdims=True)
-            Fi /= norm
-            Pi /= norm
-            # ---- scattering vertices: the light scattered towards the camera
-            mv = np.flatnonzero(med)
-            if mv.size:
-                x = p[mv] + t[mv, None] * d[mv]
-                v = pupil - x
-                s = np.linalg.norm(v, axis=1)
-                wv = v / s[:, None]
-                cos_psi = np.sum(d[mv] * wv, axis=1)
-                # counted here: a scattering by more than ψ_c towards the camera after another significant
-                # event (one alone is the analytic model's quasi-single scattering); the camera leg as the
-                # analytic model's, e^{−(c − bF)s}: small-angle scattering on the way back conserved
-                ok = (s > reach) & (s < edges[-1])
-                if only_a:
-                    ok &= (n_sig[idx[mv]] == 0) & (cos_psi < cutoff_cos)
-                elif qss:
-                    ok &= cos_psi < cutoff_cos
-                elif not every:
-                    ok &= (n_sig[idx[mv]] >= 1) & (cos_psi < cutoff_cos)
-                if S and np.any(ok):
-                    o2 = np.flatnonzero(ok)
-                    blocked = occluded(surf, x[o2], pupil)
-                    ok[o2[blocked]] = False
-                if np.any(ok):
-                    o2 = np.flatnonzero(ok)
-                    px = project_points(cam, x[o2], width, height, n_outside=n_out)
-                    ic = np.floor(px[:, 0] / width * cols)
-                    ir = np.floor(px[:, 1] / height * rows)
-                    inside = np.isfinite(ic) & np.isfinite(ir) & (ic >= 0) & (ic < cols) & (ir >= 0) & (ir < rows)
-                    o2 = o2[inside]
-                    ic, ir = ic[inside].astype(np.int64), ir[inside].astype(np.int64)
-                    ph = np.take(dens, tables.grid.cell_index(cos_psi[o2]), axis=1).T @ weights.T  # (m, B)
-                    val = Fi[mv[o2]] * ph * np.exp(-np.outer(s[o2] - reach, c if every else kappa_cam)) \
-                        / (s[o2] ** 2 * omega[ir, ic])[:, None]
-                    kb = np.clip(np.searchsorted(edges, s[o2], side="right") - 1, 0, N_RANGE_BINS - 1)
-                    np.add.at(veil[bi], (ir, ic, kb), val)
-                    n_vert += o2.size
-                # scatter
-                cos_new = _sample_phase(tables, weights, hero[idx[mv]], rng)
-                ph_new = np.take(dens, tables.grid.cell_index(cos_new), axis=1).T @ weights.T
-                Fi[mv] *= ph_new
-                Pi[mv] *= ph_new
-                norm = Pi[mv].mean(axis=1, keepdims=True)
-                Fi[mv] /= norm
-                Pi[mv] /= norm
-                n_sig[idx[mv]] += cos_new < cutoff_cos
-                pos[idx[mv]] = x
-                dirs[idx[mv]] = _rotate(d[mv], cos_new, 2 * np.pi * rng.random(mv.size))
-            # ---- surfaces: class-B irradiance, then a diffuse reflection
-            sv = np.flatnonzero(~med & np.isfinite(t_s))
-            if sv.size:
-                k = oid[sv] - 1
-                x = p[sv] + t_s[sv, None] * d[sv]
-                dep = n_sig[idx[sv]] >= 1  # one alone (the first event) is the analytic model's direct light
-                if only_a:
-                    dep = ~dep
-                if every or qss:
-                    _splat_surface(veil[bi], x, k, d[sv], Fi[sv], refl, surf, pupil, reach, edges,
-                                   c if every else kappa_cam, omega, cam, width, height, cols, rows, n_out)
-                    dep[:] = False
-                if np.any(dep):
-                    iu, iv = _texture_cell(surf, k[dep], x[dep])
-                    np.add.at(irr[bi], (k[dep], iu, iv), Fi[sv[dep]] / cell_area[k[dep], None])
-                nrm = surf.normal[k]
-                nrm = np.where((np.sum(nrm * d[sv], axis=1) > 0)[:, None], -nrm, nrm)  # the lit side
-                u1, u2 = rng.random(sv.size), rng.random(sv.size)
-                r_ = np.sqrt(u1)
-                loc = np.stack([r_ * np.cos(2 * np.pi * u2), r_ * np.sin(2 * np.pi * u2), np.sqrt(1 - u1)], -1)
-                new = _cosine_about(nrm, loc)
-                Fi[sv] *= refl[k + 1]
-                n_sig[idx[sv]] += 1
-                pos[idx[sv]] = x + 1e-7 * nrm
-                dirs[idx[sv]] = new
-            F[idx], P[idx] = Fi, Pi
-            # ---- ends: escaped, far away, Russian roulette
-            far = np.linalg.norm(pos[idx] - pupil, axis=1) > edges[-1]
-            alive[idx[far]] = False
-            wmax = F[idx].max(axis=1)
-            qs = np.minimum(1.0, wmax / (0.05 * f_ref[idx]))
-            survive = rng.random(idx.size) < qs
-            alive[idx[~survive]] = False
-            keep = idx[survive & alive[idx]]
-            F[keep] /= qs[np.searchsorted(idx, keep)][:, None]
-    return _result(veil, irr, edges, cols, rows, width, height, photons, n_vert, t0, batches)
+    # every batch in one pass (a batch index per photon): the loop runs once per bounce
+    n = per_batch * batches
+    bid = np.arange(n) % batches
+    li = rng.choice(len(lights), size=n, p=q)
+    pos = np.empty((n, 3))
+    dirs = np.empty((n, 3))
+    F = np.empty((n, B))
+    for l, light in enumerate(lights):
+        m = li == l
+        k = int(m.sum())
+        if not k:
+            continue
+        d_loc, _ = sample_beam_direction(light.beam, rng.random(k), rng.random(k))
+        dirs[m] = local_to_world(light.aim, d_loc)
+        pos[m] = np.asarray(light.position_m, float)
+        F[m] = 1.0 / (q[l] * per_batch)
+    P = np.ones((n, B))
+    hero = rng.integers(0, B, n)
+    n_sig = np.zeros(n, np.int32)  # significant events so far: scatterings by more than ψ_c, surfaces
+    touched = np.zeros(n, bool)  # met a surface
+    f_ref = F.max(axis=1).copy()
+    # the photons still alive, compacted after every bounce
+    for _ in range(_MAX_BOUNCES):
+        n = len(F)
+        if n == 0:
+            break
+        p, d = pos, dirs
+        if S:
+            t_s, oid = cast_rays(surf, p, d)
+        else:
+            t_s, oid = np.full(n, np.inf), np.zeros(n, np.int32)
+        t = -np.log1p(-rng.random(n)) / c[hero]
+        med = t < t_s
+        # ---- free flight: weights for every band, densities for every possible hero
+        tt = np.where(med, t, t_s)[:, None]
+        T = np.exp(-c[None, :] * np.where(np.isfinite(tt), tt, 0.0))
+        F = F * np.where(med[:, None], b[None, :] * T, T)
+        P = P * np.where(med[:, None], c[None, :] * T, T)
+        norm = P.mean(axis=1, keepdims=True)
+        F /= norm
+        P /= norm
+        new_pos, new_dirs = pos.copy(), dirs.copy()
+        # ---- scattering vertices: the light scattered towards the camera
+        mv = np.flatnonzero(med)
+        if mv.size:
+            x = p[mv] + t[mv, None] * d[mv]
+            v = pupil - x
+            s = np.linalg.norm(v, axis=1)
+            wv = v / s[:, None]
+            cos_psi = np.sum(d[mv] * wv, axis=1)
+            # counted here: a scattering by more than ψ_c towards the camera after another significant
+            # event (one alone is the analytic model's quasi-single scattering); the camera leg as the
+            # analytic model's, e^{−(c − bF)s}: small-angle scattering on the way back conserved
+            ok = (s > reach) & (s < edges[-1])
+            if only_a:
+                ok &= (n_sig[mv] == 0) & (cos_psi < cutoff_cos)
+            elif qss:
+                ok &= cos_psi < cutoff_cos
+            elif not every:
+                ok &= (n_sig[mv] >= 1) & (cos_psi < cutoff_cos)
+            if S and np.any(ok):
+                o2 = np.flatnonzero(ok)
+                blocked = occluded(surf, x[o2], pupil)
+                ok[o2[blocked]] = False
+            if np.any(ok):
+                o2 = np.flatnonzero(ok)
+                px = project_points(cam, x[o2], width, height, n_outside=n_out)
+                ic = np.floor(px[:, 0] / width * cols)
+                ir = np.floor(px[:, 1] / height * rows)
+                inside = np.isfinite(ic) & np.isfinite(ir) & (ic >= 0) & (ic < cols) & (ir >= 0) & (ir < rows)
+                o2 = o2[inside]
+                ic, ir = ic[inside].astype(np.int64), ir[inside].astype(np.int64)
+                ph = np.take(dens, tables.grid.cell_index(cos_psi[o2]), axis=1).T @ weights.T  # (m, B)
+                s_o = s[o2]
+                inv_s2 = np.where(s_o < s_near, inv_s2_near, 1.0 / s_o ** 2) if not every else 1.0 / s_o ** 2
+                val = F[mv[o2]] * ph * np.exp(-np.outer(s_o - reach, c if every else kappa_cam)) \
+                    * (inv_s2 / omega[ir, ic])[:, None]
+                kb = np.clip(np.searchsorted(edges, s[o2], side="right") - 1, 0, N_RANGE_BINS - 1)
+                who = mv[o2]
+                ts_ = touched[who]
+                for arr, m_ in ((veil, ~ts_), (veil_s, ts_)):
+                    if np.any(m_):
+                        np.add.at(arr, (bid[who[m_]], li[who[m_]], ir[m_], ic[m_], kb[m_]), val[m_])
+                n_vert += o2.size
+            # scatter
+            cos_new = _sample_phase(tables, weights, hero[mv], rng, cdfs)
+            ph_new = np.take(dens, tables.grid.cell_index(cos_new), axis=1).T @ weights.T
+            F[mv] *= ph_new
+            P[mv] *= ph_new
+            norm = P[mv].mean(axis=1, keepdims=True)
+            F[mv] /= norm
+            P[mv] /= norm
+            n_sig[mv] += cos_new < cutoff_cos
+            new_pos[mv] = x
+            new_dirs[mv] = _rotate(d[mv], cos_new, 2 * np.pi * rng.random(mv.size))
+        # ---- surfaces: class-B irradiance, then a diffuse reflection
+        sv = np.flatnonzero(~med & np.isfinite(t_s))
+        if sv.size:
+            k = oid[sv] - 1
+            x = p[sv] + t_s[sv, None] * d[sv]
+            dep = n_sig[sv] >= 1  # one alone (the first event) is the analytic model's direct light
+            if only_a:
+                dep = ~dep
+            if every or qss:
+                _splat_surface(veil_s, (bid[sv], li[sv]), x, k, d[sv], F[sv], refl, surf, pupil, reach, edges,
+                               c if every else kappa_cam, omega, cam, width, height, cols, rows, n_out)
+                dep[:] = False
+            if np.any(dep):
+                iu, iv = _texture_cell(surf, k[dep], x[dep])
+                np.add.at(irr, (bid[sv[dep]], li[sv[dep]], k[dep], iu, iv), F[sv[dep]] / cell_area[k[dep], None])
+            nrm = surf.normal[k]
+            nrm = np.where((np.sum(nrm * d[sv], axis=1) > 0)[:, None], -nrm, nrm)  # the lit side
+            u1, u2 = rng.random(sv.size), rng.random(sv.size)
+            r_ = np.sqrt(u1)
+            loc = np.stack([r_ * np.cos(2 * np.pi * u2), r_ * np.sin(2 * np.pi * u2), np.sqrt(1 - u1)], -1)
+            F[sv] *= refl[k + 1]
+            n_sig[sv] += 1
+            touched[sv] = True
+            new_pos[sv] = x + 1e-7 * nrm
+            new_dirs[sv] = _cosine_about(nrm, loc)
+        # ---- ends: escaped, far away, Russian roulette
+        far = np.linalg.norm(new_pos - pupil, axis=1) > edges[-1]
+        qs = np.minimum(1.0, F.max(axis=1) / (0.05 * f_ref))
+        keep = (rng.random(n) < qs) & ~far
+        F = F[keep] / qs[keep, None]
+        P, pos, dirs = P[keep], new_pos[keep], new_dirs[keep]
+        hero, n_sig, touched, bid, li, f_ref = hero[keep], n_sig[keep], touched[keep], bid[keep], li[keep], f_ref[keep]
+    return _result(veil, veil_s, irr, power, to_bands, edges, cols, rows, width, height, photons, n_vert, t0)
 
 
-def _splat_surface(veil, x, k, d_in, F, refl, surf, pupil, reach, edges, c, omega, cam, width, height, cols, rows,
-                   n_out):
+def _spectral_nodes(wl: np.ndarray, nodes: int | None) -> tuple[np.ndarray, np.ndarray]:
+    """The wavelengths the photons carry (nm) and the (bands, nodes) matrix of linear interpolation."""
+    if nodes is None or nodes >= len(wl) or len(wl) < 3:
+        return wl, np.eye(len(wl))
+    wn = np.linspace(float(wl.min()), float(wl.max()), max(2, int(nodes)))
+    eye = np.eye(len(wn))
+    return wn, np.stack([np.interp(wl, wn, eye[j]) for j in range(len(wn))], axis=1)
+
+
+def _at_nodes(x: np.ndarray, wl: np.ndarray, wn: np.ndarray) -> np.ndarray:
+    x = np.asarray(x, float)
+    return x if len(wn) == len(wl) and np.array_equal(wn, wl) else np.interp(wn, wl, x)
+
+
+def _splat_surface(veil, who, x, k, d_in, F, refl, surf, pupil, reach, edges, c, omega, cam, width, height, cols,
+                   rows, n_out):
     """``classes="all"``: the light a surface hit reflects towards the camera, splatted like the veil."""
     v = pupil - x
     s = np.linalg.norm(v, axis=1)
@@ -422,8 +500,8 @@ def _splat_surface(veil, x, k, d_in, F, refl, surf, pupil, reach, edges, c, omeg
     o, ic, ir = o[inside], ic[inside].astype(np.int64), ir[inside].astype(np.int64)
     val = F[o] * refl[k[o] + 1] * (cos_out[o] / np.pi)[:, None] * np.exp(-np.outer(s[o] - reach, c)) \
         / (s[o] ** 2 * omega[ir, ic])[:, None]
-    kb = np.clip(np.searchsorted(edges, s[o], side="right") - 1, 0, veil.shape[2] - 1)
-    np.add.at(veil, (ir, ic, kb), val)
+    kb = np.clip(np.searchsorted(edges, s[o], side="right") - 1, 0, veil.shape[4] - 1)
+    np.add.at(veil, (who[0][o], who[1][o], ir, ic, kb), val)
 
 
 def _cosine_about(n: np.ndarray, loc: np.ndarray) -> np.ndarray:
@@ -436,20 +514,32 @@ def _cosine_about(n: np.ndarray, loc: np.ndarray) -> np.ndarray:
     return loc[:, 0:1] * t + loc[:, 1:2] * s + loc[:, 2:3] * n
 
 
-def _result(veil, irr, edges, cols, rows, width, height, photons, n_vert, t0, batches=1) -> MultipleScattering:
+def _result(veil, veil_s, irr, power, to_bands, edges, cols, rows, width, height, photons, n_vert,
+            t0) -> MultipleScattering:
+    """Batches (nb, L, …, nodes) per light and unit power → the image's bands, times each light's
+    spectrum (``power`` (L, bands)), summed over the lights; the batches' mean and noise."""
+
+    def to_image(a):  # (nb, L, ..., n) → (nb, ..., bands)
+        return np.einsum("bl...n,kn,lk->b...k", a, to_bands, power, optimize=True)
+
+    veil, veil_s, irr = to_image(veil), to_image(veil_s), to_image(irr)
     nb = veil.shape[0]
     mean_v = veil.mean(axis=0)  # each batch is an estimate (its photons carry 1/per_batch)
+    mean_s = veil_s.mean(axis=0)
     mean_i = irr.mean(axis=0)
 
-    def rel_noise(a, m):
+    def rel_noise(a):
         if nb < 2:
             return float("nan")
         tot = a.reshape(nb, -1).sum(axis=1)
         mu = tot.mean()
         return float(tot.std(ddof=1) / np.sqrt(nb) / mu) if mu > 0 else 0.0
 
-    cum = np.concatenate([np.zeros(mean_v.shape[:2] + (1, mean_v.shape[-1])), np.cumsum(mean_v, axis=2)], axis=2)
+    def cumulative(m):
+        return np.concatenate([np.zeros(m.shape[:2] + (1, m.shape[-1])), np.cumsum(m, axis=2)], axis=2)
+
     cell_col = (np.arange(cols) + 0.5) * width / cols
     cell_row = (np.arange(rows) + 0.5) * height / rows
-    return MultipleScattering(cum, edges, cell_col, cell_row, mean_i, (rel_noise(veil, mean_v), rel_noise(irr, mean_i)),
-                              int(photons), int(n_vert), time.perf_counter() - t0)
+    return MultipleScattering(cumulative(mean_v), cumulative(mean_s), edges, cell_col, cell_row, mean_i,
+                              (rel_noise(veil + veil_s), rel_noise(irr)), int(photons), int(n_vert),
+                              time.perf_counter() - t0)
