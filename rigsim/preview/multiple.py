@@ -426,7 +426,7 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
                 ic, ir = ic[inside].astype(np.int64), ir[inside].astype(np.int64)
                 ph = np.take(dens, tables.grid.cell_index(cos_psi[o2]), axis=1).T @ weights.T  # (m, B)
                 s_o = s[o2]
-                inv_s2 = np.where(s_o < s_near, inv_s2_near, 1.0 / s_o ** 2) if not every else 1.0 / s_o ** 2
+                inv_s2 = np.where(s_o < s_near, inv_s2_near, 1.0 / s_o ** 2) if classes == "B" else 1.0 / s_o ** 2
                 val = F[mv[o2]] * ph * np.exp(-np.outer(s_o - reach, c if every else kappa_cam)) \
                     * (inv_s2 / omega[ir, ic])[:, None]
                 kb = np.clip(np.searchsorted(edges, s[o2], side="right") - 1, 0, N_RANGE_BINS - 1)
