@@ -15,6 +15,15 @@ other processes' CPU share), and warns when the machine was busy.
     python benchmarks/bench_preview_speed.py                   # 640x427, 1280x853, 1920x1280
     python benchmarks/bench_preview_speed.py --sizes 1280x853 --repeats 5
     python benchmarks/bench_preview_speed.py --no-reference    # the fast engine only
+    python benchmarks/bench_preview_speed.py --monte-carlo none # without the Monte Carlo comparison
+
+Against Monte Carlo (``--monte-carlo WxH``, default 64x43): ``rigsim render`` of the same scene,
+31 bands, in batches of 16 paths per pixel until its noise (the 99th percentile over pixels of the
+relative standard error, :func:`rigsim.render.renderer.relative_noise_p99`) is at most 5 %, or 4096
+paths per pixel.  Its time per pixel at that noise, times the pixels of each size, is the time
+Monte Carlo needs for that size (its cost is proportional to pixels × paths: the extrapolation is
+stated, not hidden; rendering 1280×853 to 5 % would take hours), and the ratio to the fast engine
+is printed.  If 4096 paths per pixel do not reach 5 % the ratio is a lower bound (printed ``≥``).
 """
 
 from __future__ import annotations
@@ -113,6 +122,23 @@ def compare(new, ref) -> tuple[float, float]:
     return worst_el, worst_max
 
 
+#: The Monte Carlo noise the comparison asks for (relative, 99th percentile over pixels).
+MC_NOISE = 0.05
+
+
+def monte_carlo_per_pixel(scene, size: str):
+    """Seconds per pixel ``rigsim render`` needs for :data:`MC_NOISE`: (s/px, spp, noise, s, (w, h))."""
+    from rigsim.render import render
+
+    w, h = (int(x) for x in size.lower().split("x"))
+    render(scene, width=16, height=12, spp=4, seed=0)  # warm-up: kernels compiled
+    t0 = time.perf_counter()
+    img = render(scene, width=w, height=h, spp=16, seed=1, noise_target=MC_NOISE, max_spp=4096)
+    t = time.perf_counter() - t0
+    noise = max((v for v in (img.meta.get("noise_p99") or {}).values()), default=float("nan"))
+    return t / (w * h), int(img.meta["spp"]), float(noise), t, (w, h)
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--sizes", default=",".join(f"{w}x{h}" for w, h in SIZES),
@@ -121,6 +147,8 @@ def main(argv=None) -> int:
     ap.add_argument("--reference-repeats", type=int, default=1, help="runs of the old model per size")
     ap.add_argument("--no-reference", action="store_true", help="do not time the old model")
     ap.add_argument("--threads", type=int, default=None, help="threads of the fast engine (default: all cores)")
+    ap.add_argument("--monte-carlo", default="64x43",
+                    help="size of the Monte Carlo render to 5 %% noise (WxH), or 'none' (default %(default)s)")
     args = ap.parse_args(argv)
     sizes = [tuple(int(x) for x in s.lower().split("x")) for s in args.sizes.split(",")]
 
@@ -149,9 +177,12 @@ def main(argv=None) -> int:
         reference_preview(scene, width=64, height=43, split=True)
     print(f"\n{'size':>10} {'fast wall':>10} {'fast CPU':>9} {'old wall':>9} {'old CPU':>8} {'speed-up':>9}"
           f" {'max rel. diff (element / layer max)':>36}")
+    mc = None if args.monte_carlo.lower() == "none" else monte_carlo_per_pixel(scene, args.monte_carlo)
+    fast_times = []
     for w, h in sizes:
         t_new, c_new, img = timed(lambda w=w, h=h: render_preview(scene, width=w, height=h, split=True,
                                                                    threads=args.threads), args.repeats)
+        fast_times.append((w, h, t_new))
         line = f"{w:>5}x{h:<4} {t_new:9.2f}s {c_new:8.2f}s"
         if not args.no_reference:
             t_old, c_old, ref = timed(lambda w=w, h=h: reference_preview(scene, width=w, height=h, split=True),
@@ -161,6 +192,19 @@ def main(argv=None) -> int:
             del ref
         print(line, flush=True)
         del img
+    if mc is not None:
+        per_px, spp, noise, t_mc, (mw, mh) = mc
+        bound = "≥ " if noise > MC_NOISE else ""
+        print(f"\nMonte Carlo ({mw}x{mh}, 31 bands): {spp} paths per pixel for noise p99 {noise:.3f} "
+              f"(target {MC_NOISE:g}) in {t_mc:.1f} s = {per_px * 1e3:.2f} ms per pixel")
+        print(f"{'size':>10} {'fast wall':>10} {'Monte Carlo (per pixel x pixels)':>34} {'ratio':>10}")
+        for w, h, t_new in fast_times:
+            t = per_px * w * h
+            print(f"{w:>5}x{h:<4} {t_new:9.2f}s {t:27.0f} s ({t / 3600:.1f} h) {bound}{t / t_new:8.0f}x")
+        if bound:
+            k = (noise / MC_NOISE) ** 2  # noise ∝ 1/√paths
+            print(f"(4096 paths per pixel left the noise at {noise:.3f}: if it falls as 1/√paths, 5 % takes "
+                  f"{k:.0f}x as long, and the ratios are {k:.0f}x the lower bounds above)")
     l1 = load()
     print(f"\nload average after: {l1[0]:.2f} {l1[1]:.2f} {l1[2]:.2f} (this benchmark adds up to "
           f"{args.threads or default_threads()})")
