@@ -158,6 +158,31 @@ def _water_at(scene: Scene, wl: np.ndarray, lam: np.ndarray, cutoff_rad: float, 
 #: tracer the rest.  Measured (``rigsim.preview.multiple`` docstring, ``classes="A"``): at 30° the
 #: quasi-single-scattering veil equals the traced paths of its class to 0.8 %; at 90° it is 19 % high.
 MS_CUTOFF_DEG = 30.0
+#: Wide-angle scattering ``b (1 − F(30°))`` at 550 nm (1/m) from which the fast engine adds the
+#: multiply scattered light by default.  Set from the agreement benchmark without it
+#: (``data/fast_engine/agreement.csv`` of 2026-12-01): the waters below it (pure-sea, oceanic, the
+#: write-up's coastal regions and lakes, Jerlov I–IB: 0.002–0.008 /m) agreed with Monte Carlo
+#: within 2.7 % without it; from clear (0.020 /m, −3.3 %) and coastal (0.039 /m, −5.4 %) up
+#: (Jerlov II 0.044 … 9C 0.38 /m: −24 … −70 % at the worst cell) the missing light showed.
+MS_AUTO_MIN_B_WIDE_PER_M = 0.01
+
+
+def wide_angle_scattering_per_m(water, wavelength_nm: float = 550.0, cutoff_deg: float = MS_CUTOFF_DEG) -> float:
+    """``b (1 − F(ψ_c))`` (1/m): the water's scattering by more than ``cutoff_deg`` at ``wavelength_nm``."""
+    lo, hi = water.wavelength_range_nm
+    wl = float(np.clip(wavelength_nm, lo, hi))
+    comps = phase_tables(water.phase, water.wavelength_range_nm)
+    F = float(comps.weights_at([wl])[0] @ comps.forward_fraction(np.radians(cutoff_deg)))
+    return float(water.b_per_m(wl)) * (1.0 - F)
+
+
+def multiple_scattering_matters(scene: Scene) -> bool:
+    """Whether the fast engine adds the multiply scattered light by default (:data:`MS_AUTO_MIN_B_WIDE_PER_M`)."""
+    if scene.water is None or not scene.lights:
+        return False
+    return wide_angle_scattering_per_m(scene.water) >= MS_AUTO_MIN_B_WIDE_PER_M
+
+
 def _sub_band_wavelengths(wl: np.ndarray, bw: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
     """(B, n) Gauss–Legendre nodes inside each band and their weights (summing to 1)."""
     x, w = np.polynomial.legendre.leggauss(n)
@@ -169,7 +194,7 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
                    layers: Sequence[str] = ("range_m", "clear", "object_id"), split: bool = False,
                    shadows: bool = False, forward_scatter: bool = True, forward_cutoff_deg: float | None = None,
                    sub_bands: int = 3, pixel_samples: int = 1, backscatter_grid: int | None = 32,
-                   backscatter_nodes: int = 64, multiple: bool = False, photons: int | None = None,
+                   backscatter_nodes: int = 64, multiple: bool | None = None, photons: int | None = None,
                    ms_grid: int | None = None, ms_truncate_deg: float | None = None, spp: int | None = None,
                    seed: int | None = None,
                    max_depth: int | None = None, progress: ProgressCallback | None = None,
@@ -196,10 +221,10 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
         Scattering by less than this angle is treated as forward scattering (deg, 0–90; None:
         :data:`MS_CUTOFF_DEG` with multiple scattering, 90 without).
     multiple, photons, ms_grid, ms_truncate_deg
-        Add the multiply scattered light of the lights (:mod:`rigsim.preview.multiple`; off by
-        default: its photon noise is still too high for contrasts, see that module), photons per
-        light group (default :data:`~rigsim.preview.multiple.DEFAULT_PHOTONS`), its grid and
-        δ-truncation angle.
+        The multiply scattered light of the lights (:mod:`rigsim.preview.multiple`): True, False
+        or None (auto: on where the water's wide-angle scattering ``b (1 − F(ψ_c))`` at 550 nm is
+        at least :data:`MS_AUTO_MIN_B_WIDE_PER_M`), photons per light group (default
+        :data:`~rigsim.preview.multiple.DEFAULT_PHOTONS`), its grid and δ-truncation angle.
     sub_bands
         Gauss–Legendre points per band for the direct component (1: band centres).
     pixel_samples
@@ -245,6 +270,8 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
     pixel_samples = check_int("pixel_samples", pixel_samples, 1, 16)
     backscatter_nodes = check_int("backscatter_nodes", backscatter_nodes, 8, 4096)
     threads = default_threads() if threads is None else check_int("threads", threads, 1, 1024)
+    if multiple is None:
+        multiple = multiple_scattering_matters(scene)
     if forward_cutoff_deg is None:
         forward_cutoff_deg = MS_CUTOFF_DEG if multiple else 90.0
     if not 0.0 < float(forward_cutoff_deg) <= 90.0:

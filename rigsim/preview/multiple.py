@@ -37,7 +37,7 @@ densities the path would have had with every other hero, so no band's weight is 
 * Russian roulette (survival ∝ the path's largest band weight) ends weak photons; photons farther
   than 30 attenuation lengths of the clearest band from the camera end.
 
-The estimate is unbiased for class B (but for the two approximations below); its noise falls as
+The estimate is unbiased for class B but for the approximations below; its noise falls as
 1/√photons and is measured from independent batches (:attr:`MultipleScattering.relative_noise`).
 
 * **Spectral nodes** — photons carry :data:`SPECTRAL_NODES` wavelengths per unit of each light's
@@ -47,22 +47,26 @@ The estimate is unbiased for class B (but for the two approximations below); its
 * **Near shell** — next to the port the source is taken as uniform along each ray
   (:data:`NEAR_SHELL_REACHES`).
 
-Status (measured 2026-12-02, ``twin-strobes-45-wide``, 96×64, 31 bands, Monte Carlo 4 × 32 spp):
-with ψ_c = 30° the black disk and the open-water veil agree with Monte Carlo within 2 % in Jerlov
-3C at 1 and 3 m (the analytic model alone: −3 … −6 %) and within −6 … −2 % (± 2.4 % of the
-reference's own noise) in Jerlov 7C (alone: −10 … −1 %), in 2 s for 200 000 photons.  Not yet
-on by default: the photons that reach the camera's view are few when the strobes aim out of it
-(edge lighting), and with 200 000 of them the class-B veil of a region of the image varies by
-±15 % between seeds, which moves an edge-lit black disk's contrast in Jerlov 3C at 13.5 m between
-1 % and 6 %.  What it needs is an estimator from the camera's side (photon beams, or the photons'
-collision density gathered along the camera's rays), not more photons.
+* **Kernel in the water** — each range bin of the veil is blurred across the image by
+  :data:`KERNEL_M` at its distance (a density estimate over decimetres of water, not over a
+  cell's frustum, which near the port holds few photons).
+
+Status (measured 2026-12-02, ``twin-strobes-45-wide``, 96×64, 31 bands, Monte Carlo 4 × 512 spp
+for the chart, 4 × 32 for the disk): with ψ_c = 30° the open-water veil of coastal water agrees
+within 1 % (the analytic model alone −4 %), of Jerlov 3C within −3 % (alone −7 %), of Jerlov 7C
+within −7 … −9 % (alone −12 %); the black disk within 2 % in 3C and 3 % in 7C; 2–4 s for 200 000
+photons on 2 cores, whatever the image size.  Between seeds an edge-lit black disk's contrast in
+Jerlov 3C at 13.5 m varies by ±0.2 % (without the kernel in the water: between 1 % and 6 %).
 
 References
 ----------
 Jensen, H. W. (2001). *Realistic Image Synthesis Using Photon Mapping* (particle tracing, the
 collision estimator).  Veach, E. (1997). *Robust Monte Carlo Methods for Light Transport
 Simulation*, PhD thesis, Stanford (light tracing to the camera, §10.2).  Wilkie, A. et al.
-(2014). Hero wavelength spectral sampling. *Computer Graphics Forum* 33(4).
+(2014). Hero wavelength spectral sampling. *Computer Graphics Forum* 33(4).  Jensen, H. W. &
+Christensen, P. H. (1998). Efficient simulation of light transport in scenes with participating
+media using photon maps. *SIGGRAPH '98* (the kernel in the water).  Wiscombe, W. J. (1977). The
+delta-M method. *J. Atmos. Sci.* 34, 1408 (the δ-truncation).
 """
 
 from __future__ import annotations
@@ -104,6 +108,14 @@ _MAX_BOUNCES = 400
 #: disk that changed by 2–5 % with the seed); the light scattered there by more than 30° after
 #: another wide-angle scattering is smooth on that scale.
 NEAR_SHELL_REACHES = 4.0
+#: World-space smoothing length of the class-B veil (m): each range bin's veil is blurred across the
+#: image with a Gaussian of this size at the bin's distance (angle ``KERNEL_M / s``), a kernel
+#: density estimate in the water (as volume photon mapping, Jensen & Christensen 1998) rather than
+#: in the image: near the port a cell's frustum is a few centimetres wide and few photons land in
+#: it (in an edge-lit Jerlov 3C scene 35 % of the class-B veil at the image centre came from
+#: 0.2–0.5 m, with a coefficient of variation of 1 between seeds), while the light scattered there
+#: by more than 30° twice is smooth over decimetres.  Far away the blur is below a cell.
+KERNEL_M = 0.2
 
 
 @dataclass(frozen=True, eq=False)
@@ -479,7 +491,33 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
         F = F[keep] / qs[keep, None]
         P, pos, dirs = P[keep], new_pos[keep], new_dirs[keep]
         hero, n_sig, touched, bid, li, f_ref = hero[keep], n_sig[keep], touched[keep], bid[keep], li[keep], f_ref[keep]
+    if classes == "B":
+        veil, veil_s = (_smooth_in_water(a, edges, omega) for a in (veil, veil_s))
     return _result(veil, veil_s, irr, power, to_bands, edges, cols, rows, width, height, photons, n_vert, t0)
+
+
+def _smooth_in_water(veil: np.ndarray, edges: np.ndarray, omega: np.ndarray) -> np.ndarray:
+    """Blur each range bin of ``veil`` (…, rows, cols, bins, bands) across the image by
+    :data:`KERNEL_M` at the bin's distance (a mean weighted by the cells' solid angles)."""
+    from scipy.ndimage import gaussian_filter
+
+    rows, cols = omega.shape
+    if rows * cols == 1:
+        return veil
+    cell = float(np.sqrt(np.median(omega)))  # angular size of a cell (rad)
+    s_mid = np.sqrt(edges[:-1] * edges[1:])
+    out = veil.copy()
+    lead = veil.ndim - 4
+    w = omega[(None,) * lead + (slice(None), slice(None), None)]
+    for k, s in enumerate(s_mid):
+        sigma = KERNEL_M / s / cell
+        if sigma < 0.3:
+            break  # the rest (farther) would not change
+        sig = (0,) * lead + (sigma, sigma, 0)
+        num = gaussian_filter(veil[..., k, :] * w, sig, mode="nearest")
+        den = gaussian_filter(np.broadcast_to(w, num.shape[:-1] + (1,)).astype(float), sig, mode="nearest")
+        out[..., k, :] = num / den
+    return out
 
 
 def _spectral_nodes(wl: np.ndarray, nodes: int | None) -> tuple[np.ndarray, np.ndarray]:

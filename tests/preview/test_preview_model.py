@@ -1,6 +1,9 @@
 """The preview against exact solutions and independent integrals; its layers, outputs and errors.
 
 No Mitsuba here (the comparisons with the renderer are in ``test_preview_vs_render.py``).
+These check the analytic model (the paths with at most one wide-angle scattering), so every
+image here is made without the multiply scattered light (``multiple=False``), which
+``test_multiple.py`` checks.
 """
 
 from __future__ import annotations
@@ -9,7 +12,8 @@ import numpy as np
 import pytest
 
 from rigsim.errors import ConfigError
-from rigsim.preview import PREVIEW_LAYERS, RENDERER_NAME, render_preview
+from rigsim.preview import PREVIEW_LAYERS, RENDERER_NAME
+from rigsim.preview import render_preview as _render_preview
 from rigsim.preview.forward import SmallAngle
 from rigsim.scene.phase_tables import phase_tables
 from rigsim.scene.types import BeamPattern, Daylight, Rig, Scene, Target
@@ -26,6 +30,11 @@ from tests.preview.helpers import (
 
 WL = [450.0, 550.0, 650.0]
 BW = 10.0
+
+
+def render_preview(scene, **kw):
+    """The analytic model alone (see module docstring)."""
+    return _render_preview(scene, **{"multiple": False, **kw})
 
 
 def _two_lights(kind="strobe"):

@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from rigsim.config.rig import load_rig
-from rigsim.preview import render_preview
+from rigsim.preview import render_preview as _render_preview
 import rigsim.preview.tiles as preview_tiles
 from rigsim.preview.forward import SmallAngle, unit_kernel
 from rigsim.scene.build import build_scene
@@ -27,6 +27,11 @@ from tests.preview.reference.model import render_preview as reference_preview
 
 RIGS = "rigs/"
 WL3 = dict(wavelengths_nm=[450.0, 550.0, 650.0], bandwidth_nm=10.0)
+
+
+def render_preview(scene, **kw):
+    """The analytic model (the frozen reference has no multiply scattered light)."""
+    return _render_preview(scene, **{"multiple": False, **kw})
 
 
 def _lights():
