@@ -158,8 +158,8 @@ def _water_at(scene: Scene, wl: np.ndarray, lam: np.ndarray, cutoff_rad: float, 
 #: tracer the rest.  Measured (``rigsim.preview.multiple`` docstring, ``classes="A"``): at 30° the
 #: quasi-single-scattering veil equals the traced paths of its class to 0.8 %; at 90° it is 19 % high.
 MS_CUTOFF_DEG = 30.0
-#: Wide-angle scattering ``b (1 − F(30°))`` at 550 nm (1/m) from which the fast engine adds the
-#: multiply scattered light by default.  Set from the agreement benchmark without it
+#: Wide-angle scattering ``b (1 − F(30°))`` at 550 nm (1/m) from which ``multiple="auto"`` adds the
+#: multiply scattered light.  Set from the agreement benchmark without it
 #: (``data/fast_engine/agreement.csv`` of 2026-12-01): the waters below it (pure-sea, oceanic, the
 #: write-up's coastal regions and lakes, Jerlov I–IB: 0.002–0.008 /m) agreed with Monte Carlo
 #: within 2.7 % without it; from clear (0.020 /m, −3.3 %) and coastal (0.039 /m, −5.4 %) up
@@ -177,7 +177,7 @@ def wide_angle_scattering_per_m(water, wavelength_nm: float = 550.0, cutoff_deg:
 
 
 def multiple_scattering_matters(scene: Scene) -> bool:
-    """Whether the fast engine adds the multiply scattered light by default (:data:`MS_AUTO_MIN_B_WIDE_PER_M`)."""
+    """Whether ``multiple="auto"`` adds the multiply scattered light (:data:`MS_AUTO_MIN_B_WIDE_PER_M`)."""
     if scene.water is None or not scene.lights:
         return False
     return wide_angle_scattering_per_m(scene.water) >= MS_AUTO_MIN_B_WIDE_PER_M
@@ -194,7 +194,7 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
                    layers: Sequence[str] = ("range_m", "clear", "object_id"), split: bool = False,
                    shadows: bool = False, forward_scatter: bool = True, forward_cutoff_deg: float | None = None,
                    sub_bands: int = 3, pixel_samples: int = 1, backscatter_grid: int | None = 32,
-                   backscatter_nodes: int = 64, multiple: bool | None = None, photons: int | None = None,
+                   backscatter_nodes: int = 64, multiple: bool | str = False, photons: int | None = None,
                    ms_grid: int | None = None, ms_truncate_deg: float | None = None, spp: int | None = None,
                    seed: int | None = None,
                    max_depth: int | None = None, progress: ProgressCallback | None = None,
@@ -222,9 +222,10 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
         :data:`MS_CUTOFF_DEG` with multiple scattering, 90 without).
     multiple, photons, ms_grid, ms_truncate_deg
         The multiply scattered light of the lights (:mod:`rigsim.preview.multiple`): True, False
-        or None (auto: on where the water's wide-angle scattering ``b (1 − F(ψ_c))`` at 550 nm is
-        at least :data:`MS_AUTO_MIN_B_WIDE_PER_M`), photons per light group (default
-        :data:`~rigsim.preview.multiple.DEFAULT_PHOTONS`), its grid and δ-truncation angle.
+        (default: its photon noise still moves small contrasts, see that module) or ``"auto"`` (on
+        where the water's wide-angle scattering ``b (1 − F(ψ_c))`` at 550 nm is at least
+        :data:`MS_AUTO_MIN_B_WIDE_PER_M`), photons per light group (default
+        :func:`~rigsim.preview.multiple.default_photons`), its grid and δ-truncation angle.
     sub_bands
         Gauss–Legendre points per band for the direct component (1: band centres).
     pixel_samples
@@ -270,8 +271,11 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
     pixel_samples = check_int("pixel_samples", pixel_samples, 1, 16)
     backscatter_nodes = check_int("backscatter_nodes", backscatter_nodes, 8, 4096)
     threads = default_threads() if threads is None else check_int("threads", threads, 1, 1024)
-    if multiple is None:
+    if multiple == "auto":
         multiple = multiple_scattering_matters(scene)
+    elif not isinstance(multiple, bool):
+        raise ConfigError(f"multiple must be true, false or 'auto', got {multiple!r}", field="multiple",
+                          allowed="true, false, auto")
     if forward_cutoff_deg is None:
         forward_cutoff_deg = MS_CUTOFF_DEG if multiple else 90.0
     if not 0.0 < float(forward_cutoff_deg) <= 90.0:
@@ -322,12 +326,12 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
                     tables.append(lamp.light)
             ms = None
             if multiple and has_water and lights and water.b.max() > 0:
-                from rigsim.preview.multiple import DEFAULT_GRID, DEFAULT_PHOTONS, trace_multiple
+                from rigsim.preview.multiple import DEFAULT_GRID, default_photons, trace_multiple
 
                 kap = water.c - water.b * water.F if forward else water.c
                 ms = trace_multiple(scene, surf, lights, wl, c=water.c, b=water.b, kappa_cam=kap, tables=water.components,
                                     weights=water.components.weights_at(wl), width=width, height=height,
-                                    cutoff_rad=cutoff, photons=photons or DEFAULT_PHOTONS, grid=ms_grid or DEFAULT_GRID,
+                                    cutoff_rad=cutoff, photons=photons or default_photons(width, height), grid=ms_grid or DEFAULT_GRID,
                                     truncate_rad=None if ms_truncate_deg is None else np.radians(ms_truncate_deg),
                                     seed=0 if seed is None else int(seed))
                 ms_info[gname] = {"photons": ms.photons, "seconds": round(ms.seconds, 3),

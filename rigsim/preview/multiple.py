@@ -56,7 +56,11 @@ for the chart, 4 × 32 for the disk): with ψ_c = 30° the open-water veil of co
 within 1 % (the analytic model alone −4 %), of Jerlov 3C within −3 % (alone −7 %), of Jerlov 7C
 within −7 … −9 % (alone −12 %); the black disk within 2 % in 3C and 3 % in 7C; 2–4 s for 200 000
 photons on 2 cores, whatever the image size.  Between seeds an edge-lit black disk's contrast in
-Jerlov 3C at 13.5 m varies by ±0.2 % (without the kernel in the water: between 1 % and 6 %).
+Jerlov 3C at 13.5 m varies by 0.3–0.7 % (absolute) between seeds at 200 000 photons, 1.6 % at
+88 000 (without the kernel in the water: between 1 % and 6 %): too much still for the visibility
+range of a low-contrast target, so the fast engine leaves it off unless asked
+(``render_preview(multiple=True)`` or ``"auto"``).  Next: an estimator from the camera's side
+(photon beams, or the collision density gathered along the camera's rays).
 
 References
 ----------
@@ -82,10 +86,19 @@ from rigsim.scene.optics import camera_rays, outside_index, port_reach_m, projec
 from rigsim.scene.phase_tables import PhaseTables
 from rigsim.scene.types import Scene
 
-__all__ = ["MultipleScattering", "trace_multiple", "DEFAULT_PHOTONS", "DEFAULT_GRID"]
+__all__ = ["MultipleScattering", "trace_multiple", "default_photons", "DEFAULT_PHOTONS", "DEFAULT_GRID"]
 
-#: Photons per light group (all bands at once).
+#: Photons per light group (all bands at once) of an image of 6 250 pixels or more (96×64 and up).
 DEFAULT_PHOTONS = 200_000
+#: Fewest photons of a thumbnail (:func:`default_photons`).
+MIN_PHOTONS = 20_000
+
+
+def default_photons(width: int, height: int) -> int:
+    """Photons for an image: 32 per pixel between :data:`MIN_PHOTONS` and :data:`DEFAULT_PHOTONS`
+    (the tracer's time does not depend on the image size; a thumbnail of a few hundred pixels
+    does not pay two seconds for it, a check image of 96×64 and a photograph get the full count)."""
+    return int(np.clip(32 * int(width) * int(height), MIN_PHOTONS, DEFAULT_PHOTONS))
 #: Low-resolution grid along the longer image side (the class-B light is smooth across the image;
 #: 48 cells gave nine times the cells' noise for no detail the 96×64 comparisons could see).
 DEFAULT_GRID = 16
