@@ -92,7 +92,7 @@ def main(argv=None) -> int:
     w, h = (int(x) for x in args.size.lower().split("x"))
     waters, rigs = _list(args.waters), _list(args.rigs)
     distances = [float(x) for x in _list(args.distances)]
-    runs = [("strobes", [str(ROOT / "rigs" / f"{r}.toml") for r in rigs], "")]
+    runs = [("strobes", [str(ROOT / "rigs" / f"{r}.toml") for r in rigs], "")] if rigs else []  # --rigs '': daylight only
     runs += [(f"daylight-{d:g}m", [str(ROOT / "rigs" / "ambient-only.toml")], f"depth_m = {float(d)}")
              for d in (float(x) for x in _list(args.depths))]
 
