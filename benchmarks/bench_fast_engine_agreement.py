@@ -117,7 +117,10 @@ def main(argv=None) -> int:
     if args.publish:
         from rigsim.metrics.agreement import write_published
 
-        settings = f"{w}x{h} px, Monte Carlo {args.seeds} x {args.spp} spp, rigs {', '.join(rigs)}"
+        depths = ", ".join(f"{float(d):g}" for d in _list(args.depths))
+        settings = f"{w}x{h} px, Monte Carlo {args.seeds} x {args.spp} spp, " + "; ".join(
+            x for x in (f"rigs {', '.join(rigs)}" if rigs else "",
+                        f"daylight: ambient-only at {depths} m, sun at 30 deg" if depths else "") if x)
         write_published(rows, PUBLISHED, settings=settings)
         print(f"\nper-water summary: {PUBLISHED}")
     return 0
