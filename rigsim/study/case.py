@@ -76,7 +76,8 @@ def compute_case(spec: StudySpec, case: Case) -> dict:
     if engine == "preview":
         from rigsim.preview import render_preview as _render
 
-        si = _render(scene, width=rs.width, height=rs.height, wavelengths_nm=rs.wavelengths_nm, layers=STUDY_LAYERS)
+        si = _render(scene, width=rs.width, height=rs.height, wavelengths_nm=rs.wavelengths_nm, layers=STUDY_LAYERS,
+                     multiple=rs.preview_multiple, seed=seed)
     else:
         from rigsim.render import render as _render
 
@@ -147,7 +148,8 @@ def compute_check(spec: StudySpec, case: Case) -> dict:
     scene, water, target_kind = case_scene(spec, case)
     ck, wl = spec.check, spec.render.wavelengths_nm
     t0 = time.perf_counter()
-    fast = render_preview(scene, width=ck.width, height=ck.height, wavelengths_nm=wl, layers=STUDY_LAYERS)
+    fast = render_preview(scene, width=ck.width, height=ck.height, wavelengths_nm=wl, layers=STUDY_LAYERS,
+                          multiple=spec.render.preview_multiple, seed=spec.case_seed(case))
     t_fast = time.perf_counter() - t0
     seed = spec.case_seed(case)
     refs = []

@@ -95,6 +95,14 @@ class RenderSettings:
     max_spp: int | None = None
     #: fast-engine studies: this many cases are also rendered by Monte Carlo (:class:`CheckSettings`)
     check_with_mitsuba: int = 0
+    #: fast engine: its multiply scattered light, ``"off"``, ``"on"`` or ``"auto"`` (where the water
+    #: scatters widely; :func:`rigsim.preview.render_preview`'s ``multiple``)
+    multiple_scattering: str = "off"
+
+    @property
+    def preview_multiple(self) -> bool | str:
+        """``render_preview(multiple=...)`` of :attr:`multiple_scattering`."""
+        return {"off": False, "on": True, "auto": "auto"}[self.multiple_scattering]
 
 
 @dataclass(frozen=True)
@@ -318,6 +326,9 @@ class RenderTable(FileModel):
     noise_target: _NoiseTarget | None = None
     max_spp: _MaxSpp | None = None
     check_with_mitsuba: _Checks = 0
+    #: the fast engine's multiply scattered light (rigsim.preview.multiple): its photon noise can move
+    #: a low contrast by a percent, so it is off unless asked for
+    multiple_scattering: Literal["off", "on", "auto"] = "off"
 
     @model_validator(mode="after")
     def _check(self) -> "RenderTable":
@@ -333,7 +344,8 @@ class RenderTable(FileModel):
         """The :class:`RenderSettings`."""
         return RenderSettings(width=self.width, height=self.height, spp=self.spp, wavelengths_nm=self.wavelengths,
                               engine=self.engine, integrator=self.integrator, noise_target=self.noise_target,
-                              max_spp=self.max_spp, check_with_mitsuba=self.check_with_mitsuba)
+                              max_spp=self.max_spp, check_with_mitsuba=self.check_with_mitsuba,
+                              multiple_scattering=self.multiple_scattering)
 
 
 class CheckTable(FileModel):

@@ -173,3 +173,24 @@ def test_a_contrast_that_levels_off_is_not_a_visibility(tmp_path):
     from rigsim.report.html import write_report
 
     assert "not found: the contrast levels off" in write_report(out).read_text()
+
+
+def test_multiple_scattering_is_a_render_option_of_fast_studies(tmp_path):
+    """``[render] multiple_scattering = "off" | "on" | "auto"`` reaches the fast engine (off by default)."""
+    from rigsim.errors import ConfigError
+    from rigsim.study.case import compute_case
+
+    off = load_study(fast_study(tmp_path, waters='["jerlov-3C"]', distances="[1.0]"))
+    assert off.render.multiple_scattering == "off" and off.render.preview_multiple is False
+    p = fast_study(tmp_path, waters='["jerlov-3C"]', distances="[1.0]", render_extra='multiple_scattering = "auto"')
+    auto = load_study(p)
+    assert auto.render.preview_multiple == "auto"
+    (case,) = [c for c in auto.cases() if not c.extension]
+    rows_off = compute_case(off, case)["rows"]
+    rows_auto = compute_case(auto, case)["rows"]
+    # Jerlov 3C scatters widely: the multiply scattered veil raises the disk's surround
+    assert rows_auto[0]["backscatter_share"] > rows_off[0]["backscatter_share"]
+    bad = fast_study(tmp_path, render_extra='multiple_scattering = "yes"')
+    with pytest.raises(ConfigError) as e:
+        load_study(bad)
+    assert "render.multiple_scattering" in str(e.value) and "\n" not in str(e.value)
