@@ -16,6 +16,7 @@ and the count of cells beyond tolerance + 2 SE.  Everything is in ``<out>/*/agre
     python benchmarks/bench_fast_engine_agreement.py                       # everything: hours on 2 cores
     python benchmarks/bench_fast_engine_agreement.py --quick               # 3 waters, 2 distances, 1 rig
     python benchmarks/bench_fast_engine_agreement.py --waters jerlov-7C --distances 1,3 --rigs twin-strobes-45-wide
+    python benchmarks/bench_fast_engine_agreement.py --multiple-scattering auto --quick   # with the multiply scattered light
 """
 
 from __future__ import annotations
@@ -56,6 +57,7 @@ width = {width}
 height = {height}
 wavelengths = "400:700:10"
 check_with_mitsuba = 10000
+multiple_scattering = "{ms}"
 
 [check]
 width = {width}
@@ -82,6 +84,8 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=int, default=4, help="independent Monte Carlo renders per case")
     ap.add_argument("--out", type=Path, default=ROOT / "out" / "bench-fast-engine-agreement")
     ap.add_argument("--serial", action="store_true")
+    ap.add_argument("--multiple-scattering", choices=("off", "on", "auto"), default="off",
+                    help="the fast engine's multiply scattered light ([render] multiple_scattering; default off)")
     ap.add_argument("--quick", action="store_true", help="clear, coastal-regions, jerlov-3C at 1 and 3 m, one rig")
     ap.add_argument("--publish", action="store_true",
                     help=f"write the per-water summary to {PUBLISHED.relative_to(ROOT)} (the rig designer shows it)")
@@ -105,7 +109,8 @@ def main(argv=None) -> int:
     for name, rig_files, depth in runs:
         f = args.out / f"{name}.toml"
         f.write_text(STUDY.format(name=name, rigs=rig_files, waters=waters, distances=distances, depth=depth,
-                                  width=w, height=h, spp=args.spp, seeds=args.seeds).replace("'", '"'))
+                                  width=w, height=h, spp=args.spp, seeds=args.seeds,
+                                  ms=args.multiple_scattering).replace("'", '"'))
         spec = load_study(f)
         out = run_study(spec, args.out / name, serial=args.serial)
         for r in agreement_rows(read_checks(spec, out)):
@@ -118,7 +123,8 @@ def main(argv=None) -> int:
         from rigsim.metrics.agreement import write_published
 
         depths = ", ".join(f"{float(d):g}" for d in _list(args.depths))
-        settings = f"{w}x{h} px, Monte Carlo {args.seeds} x {args.spp} spp, " + "; ".join(
+        ms = "" if args.multiple_scattering == "off" else f", multiple scattering {args.multiple_scattering}"
+        settings = f"{w}x{h} px{ms}, Monte Carlo {args.seeds} x {args.spp} spp, " + "; ".join(
             x for x in (f"rigs {', '.join(rigs)}" if rigs else "",
                         f"daylight: ambient-only at {depths} m, sun at 30 deg" if depths else "") if x)
         write_published(rows, PUBLISHED, settings=settings)
