@@ -59,7 +59,12 @@ photons on 2 cores, whatever the image size.  Between seeds an edge-lit black di
 Jerlov 3C at 13.5 m varies by 0.3–0.7 % (absolute) between seeds at 200 000 photons, 1.6 % at
 88 000 (without the kernel in the water: between 1 % and 6 %): too much still for the visibility
 range of a low-contrast target, so the fast engine leaves it off unless asked
-(``render_preview(multiple=True)`` or ``"auto"``).  Next: an estimator from the camera's side
+(``render_preview(multiple=True)`` or ``"auto"``; in studies ``[render] multiple_scattering``).
+The agreement benchmark with it (``--multiple-scattering auto``, the published cases: chart and
+disk at 1 and 3 m; 2026-12-02): the worst open-water deviation goes from −4.0/−6.9/−4.2/−6.5/−8.5 %
+to +1.5/+5.8/+3.2/−2.0/−4.5 % in Jerlov II/III/1C/3C/5C and the disk's from −2.1/−6.8/−1.5/−5.7/
+−6.6 % to −0.8/+3.5/+0.5/+5.1/+1.4 %; clear and coastal go from −3.4/−3.9 % to +2.1/+2.5 %;
+Jerlov 7C and 9C stay 11–13 % short in open water (their Monte Carlo references are noisy too).  Next: an estimator from the camera's side
 (photon beams, or the collision density gathered along the camera's rays).
 
 References
