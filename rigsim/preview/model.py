@@ -875,37 +875,12 @@ def _backscatter_grid(scene, surf, tables, water, forward, cam, width, height, w
 
 
 # --- daylight ------------------------------------------------------------------------------
-#: Wavelengths per band at which the daylight tables are averaged (:func:`_band_averaged`).
-_DAY_BAND_SAMPLES = 64
-
-
-def _band_averaged(day: SceneDaylight, wl: np.ndarray, bw: np.ndarray) -> SceneDaylight:
-    """``day`` whose table rows at the bands' centres hold the means over each band.
-
-    The renderer draws wavelengths uniformly in each band and looks the 1-nm tables up at each
-    (:meth:`SceneDaylight.band_index`), so its images hold band means; the fast engine reads one
-    row per band.  Deep in turbid water the field falls steeply with wavelength in the red (Jerlov
-    3C at 15 m: e^{−K_d z} with K_d rising by about 0.01 /m per nm), and the row at the centre is
-    below the band's mean (it is convex): the red chart patches were 8–10 % darker than Monte Carlo.
-    """
-    u = (np.arange(_DAY_BAND_SAMPLES) + 0.5) / _DAY_BAND_SAMPLES - 0.5
-    lam = np.asarray(wl, float)[:, None] + np.asarray(bw, float)[:, None] * u[None, :]  # (B, n)
-    rows = day.band_index(lam)  # (B, n)
-    centre = day.band_index(wl)
-    out = {}
-    for name in ("diffuse", "beam", "c", "k_diffuse", "k_beam"):
-        a = np.array(getattr(day, name), copy=True)
-        a[centre] = np.asarray(getattr(day, name))[rows].mean(axis=1)
-        out[name] = a
-    return dataclasses.replace(day, **out)
-
-
 class _Daylight:
     """The scene's daylight field (:mod:`rigsim.scene.daylight_field`) for the per-pixel passes."""
 
     def __init__(self, day: SceneDaylight, wl: np.ndarray, surf: SceneSurfaces, bw: np.ndarray | None = None):
         if bw is not None:
-            day = _band_averaged(day, wl, bw)
+            day = day.band_means(wl, bw)
         self.day, self.wl = day, wl
         idx = day.band_index(wl)
         self.sun = np.asarray(day.sun_direction, float)

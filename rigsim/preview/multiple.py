@@ -80,6 +80,7 @@ delta-M method. *J. Atmos. Sci.* 34, 1408 (the δ-truncation).
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from dataclasses import dataclass
 
@@ -257,10 +258,9 @@ def _rotate(d: np.ndarray, cos_t: np.ndarray, phi: np.ndarray) -> np.ndarray:
     return (cos_t[:, None] * d + (sin_t * np.cos(phi))[:, None] * e1 + (sin_t * np.sin(phi))[:, None] * e2)
 
 
-def _sample_phase(tables: PhaseTables, W: np.ndarray, hero: np.ndarray, rng, cdfs: np.ndarray | None = None) -> np.ndarray:
-    """cos ψ for each photon from its hero band's phase function (component, cell, position in v);
-    ``cdfs`` (K, cells + 1): the components' cumulative cell masses (default the tables')."""
-    cdfs = tables.cdfs if cdfs is None else cdfs
+def _sample_phase(tables: PhaseTables, W: np.ndarray, hero: np.ndarray, rng) -> np.ndarray:
+    """cos ψ for each photon from its hero band's phase function (component, cell, position in v)."""
+    cdfs = tables.cdfs
     n = hero.size
     w = W[hero]  # (n, K)
     cw = np.cumsum(w, axis=1)
@@ -273,7 +273,6 @@ def _sample_phase(tables: PhaseTables, W: np.ndarray, hero: np.ndarray, rng, cdf
         m = k == j
         if np.any(m):
             cell[m] = np.minimum(np.searchsorted(cdfs[j], uc[m], side="right") - 1, tables.grid.n_cells - 1)
-    # a cell of zero mass is never drawn (u falls on the next edge)
     v0, v1 = tables.v_edges[cell], tables.v_edges[cell + 1]
     return 1.0 - (v0 + rng.random(n) * (v1 - v0))
 
@@ -336,19 +335,19 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
     weights = np.stack([_at_nodes(weights[:, k], wl_bands, wavelength_nm) for k in range(weights.shape[1])], axis=1)
     weights = weights / np.maximum(weights.sum(axis=1, keepdims=True), 1e-300)
     B = len(wavelength_nm)
-    masses = tables.masses
     if classes == "B" and (truncate_rad is None or truncate_rad > 0):
+        # δ-truncation: the same tables without the forward cone (each component renormalised; a cell
+        # of zero mass is never drawn), and the flights' coefficients without what the cone held
         psi_t = min(float(cutoff_rad if truncate_rad is None else truncate_rad), float(cutoff_rad))
         cone = tables.forward_cells(psi_t)
-        Fk = masses[:, cone].sum(axis=1)  # (K,)
+        Fk = tables.forward_fraction(psi_t)  # (K,)
         F_t = weights @ Fk  # (B,)
         c = c - b * F_t
         b = b * (1.0 - F_t)
         weights = weights * (1.0 - Fk)[None, :]
         weights = weights / np.maximum(weights.sum(axis=1, keepdims=True), 1e-300)
-        masses = np.where(cone[None, :], 0.0, masses) / np.maximum(1.0 - Fk, 1e-300)[:, None]
-    cdfs = np.concatenate([np.zeros((len(masses), 1)), np.cumsum(masses, axis=1)], axis=1)
-    cdfs[:, -1] = 1.0
+        tables = dataclasses.replace(tables, masses=np.where(cone[None, :], 0.0, tables.masses)
+                                     / np.maximum(1.0 - Fk, 1e-300)[:, None])
     cam = scene.camera
     n_out = outside_index(scene)
     pupil = np.asarray(cam.position_m, float)
@@ -363,7 +362,7 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
     S = len(surf)
     refl = np.stack([_at_nodes(r, wl_bands, wavelength_nm) for r in surf.reflectance(wl_bands)])  # (S+1, B)
     cell_area = _cell_areas(surf) if S else np.zeros(0)
-    dens = masses / tables.grid.solid_angles[None, :]  # (K, cells), 1/sr
+    dens = tables.densities  # (K, cells), 1/sr
 
     power = []
     for light in lights:
@@ -467,7 +466,7 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
                         np.add.at(arr, (bid[who[m_]], li[who[m_]], ir[m_], ic[m_], kb[m_]), val[m_])
                 n_vert += o2.size
             # scatter
-            cos_new = _sample_phase(tables, weights, hero[mv], rng, cdfs)
+            cos_new = _sample_phase(tables, weights, hero[mv], rng)
             ph_new = np.take(dens, tables.grid.cell_index(cos_new), axis=1).T @ weights.T
             F[mv] *= ph_new
             P[mv] *= ph_new

@@ -157,6 +157,10 @@ class Caustic:
         return self.pattern[iw, iu]
 
 
+#: Wavelengths per band at which :meth:`SceneDaylight.band_means` averages the tables.
+_BAND_SAMPLES = 64
+
+
 @dataclass(frozen=True, eq=False)
 class SceneDaylight:
     """The daylight field of a scene, every 1 nm over 360–830 nm (see module docstring).
@@ -216,6 +220,27 @@ class SceneDaylight:
     def band_index(self, wavelength_nm) -> np.ndarray:
         """Index of the nearest 1-nm node (the renderer's lookup)."""
         return np.clip(np.rint(np.asarray(wavelength_nm, float) - _LO), 0, _N_WL - 1).astype(np.int64)
+
+    def band_means(self, wavelength_nm, bandwidth_nm) -> "SceneDaylight":
+        """This field whose table rows at the bands' centres hold the means over each band.
+
+        The renderer draws wavelengths uniformly in each band and looks the 1-nm tables up at each
+        (:meth:`band_index`), so its images hold band means; an engine that reads one row per band
+        reads this.  Deep in turbid water the field falls steeply with wavelength in the red (Jerlov
+        3C at 15 m: e^{−K_d z} with K_d rising by about 0.01 /m per nm), and the row at the centre is
+        below the band's mean (it is convex): the fast engine's red chart patches were 8–10 % darker
+        than Monte Carlo's.
+        """
+        u = (np.arange(_BAND_SAMPLES) + 0.5) / _BAND_SAMPLES - 0.5
+        wl = np.asarray(wavelength_nm, float)
+        rows = self.band_index(wl[:, None] + np.asarray(bandwidth_nm, float)[:, None] * u[None, :])  # (B, n)
+        centre = self.band_index(wl)
+        out = {}
+        for name in ("diffuse", "beam", "c", "k_diffuse", "k_beam"):
+            a = np.array(getattr(self, name), copy=True)
+            a[centre] = np.asarray(getattr(self, name))[rows].mean(axis=1)
+            out[name] = a
+        return dataclasses.replace(self, **out)
 
     def radiance(self, view_dirs, wavelength_nm) -> np.ndarray:
         """Diffuse radiance seen looking along ``view_dirs`` (…, 3) at ``y0``: (…, n_wl).

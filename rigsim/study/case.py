@@ -147,11 +147,11 @@ def compute_check(spec: StudySpec, case: Case) -> dict:
 
     scene, water, target_kind = case_scene(spec, case)
     ck, wl = spec.check, spec.render.wavelengths_nm
+    seed = spec.case_seed(case)
     t0 = time.perf_counter()
     fast = render_preview(scene, width=ck.width, height=ck.height, wavelengths_nm=wl, layers=STUDY_LAYERS,
-                          multiple=spec.render.preview_multiple, seed=spec.case_seed(case))
+                          multiple=spec.render.preview_multiple, seed=seed)
     t_fast = time.perf_counter() - t0
-    seed = spec.case_seed(case)
     refs = []
     t0 = time.perf_counter()
     for i in range(ck.seeds):

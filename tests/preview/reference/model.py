@@ -326,11 +326,9 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
         if has_day:
             # the target lit by the scene's daylight field (as the renderer: sun beam and diffuse
             # field; no forward-scattered halo of it, the renderer's daylight transport has none)
-            # the daylight tables' band means (rigsim.preview.model._band_averaged: a physics fix
-            # made after this copy was frozen, applied here too so that the comparison stays one of speed-ups)
-            from rigsim.preview.model import _band_averaged
-
-            day = _band_averaged(scene_daylight(scene, req.band_lo_nm, req.band_hi_nm), wl, bw)
+            # the daylight tables' band means (SceneDaylight.band_means: a physics fix made after this
+            # copy was frozen, applied here too so that the comparison stays one of speed-ups)
+            day = scene_daylight(scene, req.band_lo_nm, req.band_hi_nm).band_means(wl, bw)
             day_lit = rho_c[oid_s] / np.pi * _daylight_irradiance(day, p_s, nrm, wl)
             clear += day_lit
         clear = _pixel_mean(_expand(clear, sample_shape, hidx), n)
