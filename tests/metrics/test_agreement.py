@@ -1,0 +1,33 @@
+"""The verdicts of the fast-engine checks (:mod:`rigsim.metrics.agreement`): a Z test of the difference."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from rigsim.metrics.agreement import MetricDeviation, RegionDeviation, verdict
+
+
+def _verdict(d) -> str:
+    return verdict(d.deviation, d.deviation_se, 0.05)
+
+
+def test_the_difference_is_judged_on_the_references_noise_whichever_side_the_fast_value_is():
+    # Jerlov 3C, a chart at 6 m (demo, 2026-12-02): fast contrast 0.62 %, Monte Carlo 2.37 ± 1.10 %.
+    # (fast − ref)/se = −1.6: inside the tolerance plus two standard errors.  The ratio's first-order
+    # error, fast·se/ref², called it −74 ± 12 %: a disagreement.
+    low = MetricDeviation("contrast_radiance", fast=0.0062, reference=0.0237, reference_se=0.0110)
+    assert abs(low.deviation_se - 0.0110 / 0.0237) < 1e-12
+    assert _verdict(low) == "within noise"
+    # the same distance above the reference is judged the same way
+    high = MetricDeviation("contrast_radiance", fast=0.0237 + (0.0237 - 0.0062), reference=0.0237, reference_se=0.0110)
+    assert np.isclose(high.deviation_se, low.deviation_se) and _verdict(high) == "within noise"
+
+
+def test_a_clear_difference_still_disagrees_and_a_small_one_agrees():
+    far = RegionDeviation("open water", "blue", 100, fast=0.90, reference=1.0, reference_se=0.01)
+    assert _verdict(far) == "disagrees"  # −10 % ± 1 %
+    near = RegionDeviation("open water", "blue", 100, fast=0.97, reference=1.0, reference_se=0.01)
+    assert _verdict(near) == "agrees"
+    noisy = RegionDeviation("patch:white", "red", 9, fast=0.92, reference=1.0, reference_se=0.02)
+    assert _verdict(noisy) == "within noise"  # −8 % ≤ 5 % + 2 × 2 %
+    assert verdict(float("nan"), 0.1, 0.05) == "no reference"
