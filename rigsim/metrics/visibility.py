@@ -27,7 +27,11 @@ def visibility_range(distance_m, contrast, *, threshold: float = DEFAULT_CONTRAS
     apparent contrast).  Returns ``inf`` if the contrast stays above the threshold over
     the whole sweep.  If the first point is already below the threshold, the decay of
     the first two points is extrapolated backwards (the result is then smaller than the
-    first distance, which tells the caller the sweep started too far out).
+    first distance, which tells the caller the sweep started too far out); if the contrast
+    does not fall between them, nothing can be extrapolated and the result is NaN (a contrast
+    that grows with distance is not the target's: e.g. an edge-lit black disk in Jerlov 3C,
+    whose contrast against the ring of water around it is 1.5 % at 3 m and 4.5 % at 6 m, in the
+    fast engine and in Monte Carlo alike, because the strobes' veil differs between the two).
 
     Parameters
     ----------
@@ -53,6 +57,8 @@ def visibility_range(distance_m, contrast, *, threshold: float = DEFAULT_CONTRAS
         return float("inf")
     i = int(below[0])
     j0, j1 = (0, 1) if i == 0 else (i - 1, i)
+    if i == 0 and lc[1] >= lc[0]:
+        return float("nan")
     if lc[j1] == lc[j0]:
         return float(d[j1])
     return float(d[j0] + (lt - lc[j0]) * (d[j1] - d[j0]) / (lc[j1] - lc[j0]))

@@ -194,7 +194,7 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
                    layers: Sequence[str] = ("range_m", "clear", "object_id"), split: bool = False,
                    shadows: bool = False, forward_scatter: bool = True, forward_cutoff_deg: float | None = None,
                    sub_bands: int = 3, pixel_samples: int = 1, backscatter_grid: int | None = 32,
-                   backscatter_nodes: int = 64, multiple: bool | str = False, photons: int | None = None,
+                   backscatter_nodes: int = 64, multiple: bool | str = "auto", photons: int | None = None,
                    ms_grid: int | None = None, ms_truncate_deg: float | None = None, spp: int | None = None,
                    seed: int | None = None,
                    max_depth: int | None = None, progress: ProgressCallback | None = None,
@@ -222,9 +222,9 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
         :data:`MS_CUTOFF_DEG` with multiple scattering, 90 without).
     multiple, photons, ms_grid, ms_truncate_deg
         The multiply scattered light of the lights (:mod:`rigsim.preview.multiple`): True, False
-        (default: its photon noise still moves small contrasts, see that module) or ``"auto"`` (on
-        where the water's wide-angle scattering ``b (1 − F(ψ_c))`` at 550 nm is at least
-        :data:`MS_AUTO_MIN_B_WIDE_PER_M`), photons per light group (default
+        (single scattering only) or ``"auto"`` (default: on where the water's wide-angle scattering
+        ``b (1 − F(ψ_c))`` at 550 nm is at least :data:`MS_AUTO_MIN_B_WIDE_PER_M`), photons per light
+        group (default
         :func:`~rigsim.preview.multiple.default_photons`), its grid and δ-truncation angle.
     sub_bands
         Gauss–Legendre points per band for the direct component (1: band centres).

@@ -74,8 +74,8 @@ def _fmt_vis(r: dict) -> str:
     """A visibility range with how it was found (the sweep, or the fast engine beyond it)."""
     v, sweep_max = r.get("visibility_m_radiance"), r.get("sweep_max_m")
     far, end = r.get("contrast_at_searched_end"), r.get("searched_to_m")
-    if v is not None and np.isinf(v) and far is not None and end is not None and sweep_max is not None \
-            and end > sweep_max:
+    if v is not None and not np.isfinite(v) and far is not None and end is not None and sweep_max is not None \
+            and end > sweep_max and abs(far) >= r.get("threshold", 0.0):
         return (f"not found: the contrast levels off at {far:.1%} out to {end:.0f} m (a contrast that does not "
                 f"fall with distance is not the target's: the strobes' veil differs between the target and the "
                 f"water around it)")

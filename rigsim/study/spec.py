@@ -97,7 +97,7 @@ class RenderSettings:
     check_with_mitsuba: int = 0
     #: fast engine: its multiply scattered light, ``"off"``, ``"on"`` or ``"auto"`` (where the water
     #: scatters widely; :func:`rigsim.preview.render_preview`'s ``multiple``)
-    multiple_scattering: str = "off"
+    multiple_scattering: str = "auto"
 
     @property
     def preview_multiple(self) -> bool | str:
@@ -326,9 +326,9 @@ class RenderTable(FileModel):
     noise_target: _NoiseTarget | None = None
     max_spp: _MaxSpp | None = None
     check_with_mitsuba: _Checks = 0
-    #: the fast engine's multiply scattered light (rigsim.preview.multiple): its photon noise can move
-    #: a low contrast by a percent, so it is off unless asked for
-    multiple_scattering: Literal["off", "on", "auto"] = "off"
+    #: the fast engine's multiply scattered light (rigsim.preview.multiple): "auto" (default) where
+    #: the water's wide-angle scattering matters, "on" always, "off" never (single scattering only)
+    multiple_scattering: Literal["off", "on", "auto"] = "auto"
 
     @model_validator(mode="after")
     def _check(self) -> "RenderTable":

@@ -97,6 +97,9 @@ def test_visibility_range_edges():
     assert M.visibility_range(d, [0.5, 0.4, 0.3]) == np.inf
     r = M.visibility_range(d, [0.01, 0.005, 0.001])
     assert r < 1.0
+    # below the threshold first and growing after: nothing to extrapolate back (it was 3.79 m, the
+    # rising contrast's crossing, for an edge-lit black disk in Jerlov 3C at 3, 6, 9 m)
+    assert np.isnan(M.visibility_range([3.0, 6.0, 9.0], [0.0149, 0.0451, 0.0421]))
     with pytest.raises(ValueError):
         M.visibility_range([2.0, 1.0], [0.5, 0.1])
 

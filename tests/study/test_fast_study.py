@@ -156,7 +156,9 @@ def test_a_fast_study_checks_itself_against_monte_carlo(tmp_path):
 def test_a_contrast_that_levels_off_is_not_a_visibility(tmp_path):
     """Edge-lit black disk in Jerlov 3C: against the ring of water around it the disk keeps a few
     percent of contrast however far it is (the strobes' veil differs between the two), so the steps
-    beyond the sweep stop when the contrast stops falling, and the report says the range was not found."""
+    beyond the sweep stop when the contrast stops falling, and the report says the range was not found.
+    (With the multiply scattered light the contrast is 1.5 % at 3 m and 4.5 % at 6 m, where Monte
+    Carlo has 4.8 ± 0.4 % and below 1 % at 3 m: it passes through zero between them.)"""
     from rigsim.study.runner import LEVEL_OFF
 
     p = fast_study(tmp_path, waters='["jerlov-3C"]', distances="[3.0, 6.0]")
@@ -169,22 +171,22 @@ def test_a_contrast_that_levels_off_is_not_a_visibility(tmp_path):
     c = [max(float(r["contrast_radiance"]), float(r["contrast_image"])) for r in ext]
     assert c[-1] >= 0.02 and c[-1] >= LEVEL_OFF * c[-3]
     (vis,) = _rows(out / "visibility.csv")
-    assert math.isinf(float(vis["visibility_m_radiance"]))
+    assert not math.isfinite(float(vis["visibility_m_radiance"]))
     from rigsim.report.html import write_report
 
     assert "not found: the contrast levels off" in write_report(out).read_text()
 
 
 def test_multiple_scattering_is_a_render_option_of_fast_studies(tmp_path):
-    """``[render] multiple_scattering = "off" | "on" | "auto"`` reaches the fast engine (off by default)."""
+    """``[render] multiple_scattering = "off" | "on" | "auto"`` reaches the fast engine ("auto" by default)."""
     from rigsim.errors import ConfigError
     from rigsim.study.case import compute_case
 
-    off = load_study(fast_study(tmp_path, waters='["jerlov-3C"]', distances="[1.0]"))
-    assert off.render.multiple_scattering == "off" and off.render.preview_multiple is False
-    p = fast_study(tmp_path, waters='["jerlov-3C"]', distances="[1.0]", render_extra='multiple_scattering = "auto"')
-    auto = load_study(p)
-    assert auto.render.preview_multiple == "auto"
+    auto = load_study(fast_study(tmp_path, waters='["jerlov-3C"]', distances="[1.0]"))
+    assert auto.render.multiple_scattering == "auto" and auto.render.preview_multiple == "auto"
+    p = fast_study(tmp_path, waters='["jerlov-3C"]', distances="[1.0]", render_extra='multiple_scattering = "off"')
+    off = load_study(p)
+    assert off.render.preview_multiple is False
     (case,) = [c for c in auto.cases() if not c.extension]
     rows_off = compute_case(off, case)["rows"]
     rows_auto = compute_case(auto, case)["rows"]
