@@ -16,7 +16,7 @@ and the count of cells beyond tolerance + 2 SE.  Everything is in ``<out>/*/agre
     python benchmarks/bench_fast_engine_agreement.py                       # everything: hours on 2 cores
     python benchmarks/bench_fast_engine_agreement.py --quick               # 3 waters, 2 distances, 1 rig
     python benchmarks/bench_fast_engine_agreement.py --waters jerlov-7C --distances 1,3 --rigs twin-strobes-45-wide
-    python benchmarks/bench_fast_engine_agreement.py --multiple-scattering auto --quick   # with the multiply scattered light
+    python benchmarks/bench_fast_engine_agreement.py --multiple-scattering off --quick    # without the multiply scattered light
 """
 
 from __future__ import annotations
@@ -84,8 +84,8 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=int, default=4, help="independent Monte Carlo renders per case")
     ap.add_argument("--out", type=Path, default=ROOT / "out" / "bench-fast-engine-agreement")
     ap.add_argument("--serial", action="store_true")
-    ap.add_argument("--multiple-scattering", choices=("off", "on", "auto"), default="off",
-                    help="the fast engine's multiply scattered light ([render] multiple_scattering; default off)")
+    ap.add_argument("--multiple-scattering", choices=("off", "on", "auto"), default="auto",
+                    help="the fast engine's multiply scattered light ([render] multiple_scattering; default auto, as studies)")
     ap.add_argument("--quick", action="store_true", help="clear, coastal-regions, jerlov-3C at 1 and 3 m, one rig")
     ap.add_argument("--publish", action="store_true",
                     help=f"write the per-water summary to {PUBLISHED.relative_to(ROOT)} (the rig designer shows it)")
