@@ -87,7 +87,7 @@ def _render_into(out: Path, scene, *, rig, water, distance, target, width, heigh
     if engine == "preview":
         from rigsim.preview import render_preview
 
-        si = render_preview(scene, width=width, height=height, wavelengths_nm=wl, layers=layers, split=split)
+        si = render_preview(scene, width=width, height=height, wavelengths_nm=wl, layers=layers, split=split, seed=seed)
     else:
         from rigsim.render import render
 

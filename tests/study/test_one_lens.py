@@ -72,7 +72,7 @@ def test_cli_capture_and_study_give_the_same_raw(tmp_path):
     # the same scene through the command line: render, then capture with the study's settings
     _cli("render", RIG, "--engine", "preview", "--water", "clear", "--distance", 1.5, "--target", "colorchecker",
          "--target-size", row["target_size_m"], "--size", "48x32", "--wavelengths", "400:700:20",
-         "--out", tmp_path / "r")
+         "--seed", seed, "--out", tmp_path / "r")  # (the seed of the multiply scattered light's photons)
     _cli("capture", tmp_path / "r", "--sensor", "sony_ilce-7rm2", "--shutter", 0.004, "--iso", 200,
          "--wb", "grayworld", "--seed", seed, "--out", tmp_path / "c")
     cli_raw = _raw(tmp_path / "c" / "raw.dng")
