@@ -167,9 +167,14 @@ def test_a_contrast_that_levels_off_is_not_a_visibility(tmp_path):
     out = run_study(spec, tmp_path / "out", serial=True, progress=False)
     rows = _rows(out / "results.csv")
     ext = [r for r in rows if r["extension"] == "True"]
-    assert 3 <= len(ext) < 12, [r["distance_m"] for r in ext]  # stopped early, by the level-off rule
-    c = [max(float(r["contrast_radiance"]), float(r["contrast_image"])) for r in ext]
-    assert c[-1] >= 0.02 and c[-1] >= LEVEL_OFF * c[-3]
+    # stopped early (the cap is 12 steps), by the level-off rule: the rule looks at the sweep's last
+    # distance and the steps beyond it, so it can stop after two steps (9 and 13.5 m on one machine,
+    # 20.25 m on another: the photons' last bits differ between CPUs and the contrasts are within 3 %)
+    assert 2 <= len(ext) < 12, [r["distance_m"] for r in ext]
+    last_sweep = [r for r in rows if r["extension"] == "False" and float(r["distance_m"]) == 6.0]
+    c = [max(float(r["contrast_radiance"]), float(r["contrast_image"])) for r in last_sweep + ext]
+    assert c[-1] >= 0.02 and c[-1] >= LEVEL_OFF * c[-3]  # still visible, not falling: the rule, not the threshold
+    assert all(c[i] < LEVEL_OFF * c[i - 2] for i in range(2, len(c) - 1))  # and not earlier
     (vis,) = _rows(out / "visibility.csv")
     assert not math.isfinite(float(vis["visibility_m_radiance"]))
     from rigsim.report.html import write_report
