@@ -930,8 +930,8 @@ def _strip_debug_traces(err: str) -> str:
     """``--log-level debug`` prints traces on purpose: keep what follows them."""
     out, skipping = [], False
     for ln in err.splitlines():
-        if ln.startswith("Traceback (most recent call last)"):
-            skipping = True
+        if ln.startswith(("Traceback (most recent call last)", "During handling", "The above exception")):
+            skipping = True  # a trace, or the line that chains the next one to it
             continue
         if skipping and (ln.startswith(("  ", "During handling", "The above exception")) or not ln.strip()):
             continue

@@ -12,6 +12,7 @@ from hypothesis import given, settings
 
 from tests.fuzz.cases import (BUGS, HAZARDS, CliCase, _materialize, classify_cli, cli, cli_cases, command_skeletons,
                               run_cli_case)
+from tests.fuzz.cases import BAD_MESSAGE, REFUSED, TRACEBACK
 
 CHEAP = tuple(n for n in command_skeletons() if n not in ("render mitsuba", "dataset", "demo", "ambient mc"))
 
@@ -47,3 +48,24 @@ def test_skeletons_are_valid(ws):
     for name in CHEAP:
         res = run_cli_case(CliCase(name, command_skeletons()[name], []), ws)
         assert res.outcome == "ok", (name, res.outcome, res.detail)
+
+
+_CHAINED = """Traceback (most recent call last):
+  File "rigsim/fileio.py", line 53, in ensure_folder
+FileExistsError: [Errno 17] File exists: 'x.toml'
+
+The above exception was the direct cause of the following exception:
+
+Traceback (most recent call last):
+  File "rigsim/fileio.py", line 55, in ensure_folder
+rigsim.errors.OutputError: x.toml: cannot write: exists and is not a folder
+error: x.toml: cannot write: exists and is not a folder
+"""
+
+
+def test_debug_traces_are_read_past_chained_exceptions():
+    """``--log-level debug`` prints traces on purpose, chained ones too (the soak of seed 4242 called a
+    chained trace before a correct one-line error a bad message); without debug a trace is a bug."""
+    assert classify_cli(1, "", _CHAINED, debug=True)[0] == REFUSED
+    assert classify_cli(1, "", _CHAINED)[0] == TRACEBACK
+    assert classify_cli(1, "", _CHAINED + "error: a second line\n", debug=True)[0] == BAD_MESSAGE
