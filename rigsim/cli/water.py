@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 from pathlib import Path
 
+import numpy as np
 import typer
 
 from rigsim.cli import app
@@ -24,17 +25,30 @@ def show(
     cdom: float = typer.Option(None, "--cdom", help=f"{_OVERRIDE_HELP} CDOM absorption at 440 nm, 1/m."),
     small: float = typer.Option(None, "--small", help=f"{_OVERRIDE_HELP} small particles, ppm."),
     large: float = typer.Option(None, "--large", help=f"{_OVERRIDE_HELP} large particles, ppm."),
+    particles: str = typer.Option(None, "--particles",
+                                  help="Discrete particles (marine snow): clear-ocean, coastal, plankton-bloom, "
+                                       "silt-near-bottom, or none (default: the water's own)."),
     wavelengths: str = typer.Option("400:700:10", "--wavelengths", help="START:STOP:STEP or a list, nm."),
     as_json: bool = typer.Option(False, "--json", help="Print one JSON object instead of a table."),
 ):
-    """Print the inherent optical properties a, b, c, b_b, albedo and Kd per wavelength."""
-    w = load_water(water, chl_mg_per_m3=chl, cdom_a440_per_m=cdom, small_particles_ppm=small,
+    """Print the inherent optical properties a, b, c, b_b, albedo and Kd per wavelength, and the
+    contribution of the water's discrete particles (marine snow), which is not part of them."""
+    w = load_water(water, particles=particles, chl_mg_per_m3=chl, cdom_a440_per_m=cdom, small_particles_ppm=small,
                    large_particles_ppm=large)
     wl = parse_wavelength_range(wavelengths)
     w.check_range(wl)
     table = w.iop_table(wl)
+    pf = w.particles
+    ptab = None
+    if pf is not None:
+        ptab = {"a_per_m": pf.a_per_m(wl), "b_per_m": pf.b_per_m(wl), "c_per_m": np.full(len(wl), pf.c_per_m()),
+                "bb_per_m": pf.bb_per_m(wl)}
     if as_json:
         out = {k: [float(x) for x in v] for k, v in table.items()}
+        if pf is not None:
+            out["particles"] = {**pf.describe(), **{k: [float(x) for x in v] for k, v in ptab.items()},
+                                "note": "discrete particles, placed as objects by the renderers: not included in "
+                                        "a_per_m, b_per_m, c_per_m, bb_per_m above"}
         typer.echo(json.dumps(out))
         return
     from rich.console import Console
@@ -48,6 +62,13 @@ def show(
                                                       ("a_per_m", "b_per_m", "c_per_m", "bb_per_m", "albedo",
                                                        "kd_per_m")))
     Console().print(t)
+    if pf is not None:
+        what = f"level {pf.level!r}" if pf.level else "given by numbers"
+        typer.echo(f"particles (marine snow, {what}): {pf.number_per_m3:.3g} per m³ of {pf.d_min_mm:g}–{pf.d_max_mm:g} mm "
+                   f"(n(d) ∝ d^-{pf.size_slope:g}, mean {pf.mean_diameter_mm:.2g} mm), albedo {pf.albedo:g}; "
+                   f"placed as objects, NOT included in the table above; their own c_p = {pf.c_per_m():.3g} 1/m, "
+                   f"b_p = {float(ptab['b_per_m'].mean()):.3g} 1/m, b_bp = {float(ptab['bb_per_m'].mean()):.3g} 1/m, "
+                   f"a_p = {float(ptab['a_per_m'].mean()):.3g} 1/m (mean over the wavelengths shown)")
 
 
 @water_app.command("plot")

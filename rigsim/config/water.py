@@ -23,6 +23,17 @@ or by explicit inherent optical properties::
 
 Relative CSV paths resolve against the TOML file's folder.
 
+Either kind may add discrete particles (marine snow, :mod:`rigsim.water.particles`): a named level,
+numbers, or a level with some numbers changed::
+
+    [water.particles]
+    level = "coastal"             # clear-ocean | coastal | plankton-bloom | silt-near-bottom
+    number_per_m3 = 5e4           # particles between d_min_mm and d_max_mm per m³
+    d_min_mm = 0.25
+    d_max_mm = 5.0
+    size_slope = 3.0              # n(d) ∝ d^-size_slope
+    albedo = 0.03                 # diffuse reflectance of a particle
+
 The schema is :class:`WaterFile` / :class:`WaterTable` (pydantic, read by
 :func:`rigsim.schema.read_toml` like every config file); preset names and
 command-line overrides go through the same table model, so ``--chl -2`` and
@@ -46,7 +57,8 @@ from pydantic import BeforeValidator, Field, model_validator
 from rigsim.schema import Bool, FileModel, Real, invalid, read_toml, validate
 from rigsim.data import read_csv_table
 from rigsim.errors import ConfigError, RigsimError
-from rigsim.water.model import ConstituentWater, Spectrum1D, TabulatedWater, Water
+from rigsim.water.model import ConstituentWater, Spectrum1D, TabulatedWater, Water, with_particles
+from rigsim.water.particles import ParticleField, particle_level, particle_level_names
 from rigsim.water.phase import (
     FournierForand,
     HenyeyGreenstein,
@@ -61,8 +73,8 @@ from rigsim.water.phase import (
 from rigsim.water.presets import preset
 from rigsim.water.scattering import scattering_pure_water
 
-__all__ = ["load_water", "water_from_table", "phase_from_spec", "WaterFile", "WaterTable", "CONSTITUENT_ALIASES",
-           "PHASE_SPECS"]
+__all__ = ["load_water", "water_from_table", "phase_from_spec", "WaterFile", "WaterTable", "ParticlesTable",
+           "CONSTITUENT_ALIASES", "PHASE_SPECS"]
 
 #: Canonical constituent keys and the original code's names accepted as aliases.
 CONSTITUENT_ALIASES = {
@@ -102,6 +114,36 @@ def _wavelengths(v: Any) -> tuple[float, ...]:
 _Concentration = Annotated[Real, Field(ge=0)]
 
 
+class ParticlesTable(FileModel):
+    """The ``[water.particles]`` table: a named level and/or the fields of
+    :class:`~rigsim.water.particles.ParticleField` (numbers given override the level's)."""
+
+    level: str | None = None
+    number_per_m3: Real | None = None
+    d_min_mm: Real | None = None
+    d_max_mm: Real | None = None
+    size_slope: Real | None = None
+    albedo: Real | None = None
+
+    def field(self, *, file=None) -> ParticleField:
+        """The particle field it describes (ConfigError naming ``water.particles.<key>``)."""
+        given = {k: getattr(self, k) for k in ("number_per_m3", "d_min_mm", "d_max_mm", "size_slope", "albedo")
+                 if getattr(self, k) is not None}
+        try:
+            if self.level is not None:
+                base = particle_level(self.level)
+                return dataclasses.replace(base, **given, source=base.source if not given else
+                                           f"{base.source}; changed: {', '.join(sorted(given))}")
+            if "number_per_m3" not in given:
+                raise ConfigError("missing: give number_per_m3 or a level", field="number_per_m3",
+                                  allowed="a number >= 0 per m³, or level = " + " | ".join(particle_level_names()))
+            return ParticleField(**given, source=str(file or "inline"))
+        except ConfigError as exc:
+            fld = (exc.field or "").split(".")[-1]
+            raise ConfigError(exc.message, file=file, field=f"water.particles.{fld}".rstrip("."),
+                              allowed=exc.allowed) from None
+
+
 class WaterTable(FileModel):
     """The ``[water]`` table: a preset and/or constituents, or explicit IOPs (see the module docstring).
 
@@ -125,6 +167,7 @@ class WaterTable(FileModel):
     b_per_m: Annotated[float | str, BeforeValidator(_iop_value)] | None = None
     phase: str | None = None
     wavelength_nm: Annotated[tuple[float, ...], BeforeValidator(_wavelengths)] | None = None
+    particles: ParticlesTable | None = None
 
     @model_validator(mode="before")
     @classmethod
@@ -257,6 +300,14 @@ def _spectrum_value(v: float | str, key: str, *, file, base_dir: Path | None) ->
 
 def _to_water(t: WaterTable, *, file, base_dir: Path | None) -> Water:
     """The :class:`Water` of a validated table (CSV tables, phase functions and presets read here)."""
+    w = _continuum(t, file=file, base_dir=base_dir)
+    if t.particles is not None:
+        w = with_particles(w, t.particles.field(file=file))
+    return w
+
+
+def _continuum(t: WaterTable, *, file, base_dir: Path | None) -> Water:
+    """The water's IOPs (everything but the particles)."""
     name = t.name if t.name is not None else (Path(file).stem if file else "custom")
     if t.explicit_iops:
         a = _spectrum_value(t.a_per_m, "a_per_m", file=file, base_dir=base_dir)
@@ -308,13 +359,17 @@ def water_from_table(table: dict, *, file=None, base_dir: Path | None = None) ->
     return _to_water(validate(WaterTable, table, file=file, prefix="water"), file=file, base_dir=base_dir)
 
 
-def load_water(spec: str | Path, **overrides: float | None) -> Water:
+def load_water(spec: str | Path, *, particles: str | ParticleField | None = None, **overrides: float | None) -> Water:
     """A water from a preset name or a TOML file, with optional constituent overrides.
 
     Parameters
     ----------
     spec
         A preset name (``coastal``, ``jerlov-II`` …) or a path to a water TOML file.
+    particles
+        Discrete particles to give the water (replacing its own, if any): a level name
+        (:func:`~rigsim.water.particles.particle_level_names`), a ParticleField, ``"none"`` for
+        none, or None (keep the water's).
     overrides
         ``chl_mg_per_m3`` (mg/m³), ``cdom_a440_per_m`` (1/m), ``small_particles_ppm``,
         ``large_particles_ppm`` (ppm by volume); None: keep — only for constituent waters.
@@ -324,6 +379,20 @@ def load_water(spec: str | Path, **overrides: float | None) -> Water:
     ConfigError
         One line naming the file (if any), the field and what is allowed.
     """
+    w = _load_water(spec, **overrides)
+    if particles is None:
+        return w
+    if isinstance(particles, str):
+        if particles.lower() == "none":
+            return with_particles(w, None)
+        try:
+            particles = particle_level(particles)
+        except ConfigError as exc:
+            raise ConfigError(exc.message, field="particles", allowed=exc.allowed + ", none") from None
+    return with_particles(w, particles)
+
+
+def _load_water(spec: str | Path, **overrides: float | None) -> Water:
     overrides = {k: v for k, v in overrides.items() if v is not None}
     for k in overrides:
         if k not in _CONSTITUENT_KEYS:

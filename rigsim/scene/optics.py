@@ -7,13 +7,21 @@ sensor stage (:mod:`rigsim.sensor`) call these functions directly.
 
 Lens
 ----
-A pinhole at the entrance pupil (``Camera.position_m``) with the in-air field of view of
+The chief rays: a pinhole at the entrance pupil (``Camera.position_m``) with the in-air field of view of
 the sensor and focal length: a film position ``(px, py)`` in [0, 1]² (left → right, top →
 bottom) looks along ``forward + x right + y up`` in air with
 ``x = (2 px − 1) w/(2f)``, ``y = (1 − 2 py) h/(2f)`` (``w, h`` the sensor size, ``f`` the
 focal length).  The image's right is ``forward × up`` (:meth:`Camera.frame`), row 0 is the
 top, as Mitsuba renders.  The horizontal field of view comes from the sensor width, the
 vertical one from its height.
+
+Depth of field (a camera with ``focus_distance_m``): a thin lens in the water's object space.  The
+entrance pupil as seen from the water has the diameter :func:`aperture_diameter_water_m`; the rays
+of a film position leave points of that aperture and meet the film position's chief ray where it
+is ``focus_distance_m`` ahead of the pupil (depth along the optical axis), so a point at depth ``z``
+is spread over a disc of angular diameter ``D_w |1/z − 1/s_f|`` (:func:`defocus_blur_rad`), the
+thin-lens law in object space.  Both engines use this: the renderer draws an aperture point per
+path (:func:`camera_rays` with ``aperture=``), the fast engine blurs by the disc.
 
 Ports (exact ray geometry, no paraxial approximation)
 -----------------------------------------------------
@@ -67,6 +75,9 @@ __all__ = [
     "air_radiance_factor",
     "port_reach_m",
     "world_radius_m",
+    "aperture_diameter_water_m",
+    "defocus_blur_rad",
+    "aperture_offsets",
 ]
 
 
@@ -119,7 +130,78 @@ def _through_port(camera: Camera, d_air: np.ndarray, n_out: float) -> tuple[np.n
     return origin, d_out
 
 
-def camera_rays(camera: Camera, px, py, *, n_outside: float) -> tuple[np.ndarray, np.ndarray]:
+def aperture_diameter_water_m(camera: Camera) -> float:
+    """Diameter (m) of the entrance pupil as seen from the water: the thin lens of :func:`camera_rays`.
+
+    ``f / N`` behind a flat port (a plane window does not magnify laterally); ``f / (N n_w)`` behind a
+    dome concentric with the pupil (an object at a spherical surface's centre of curvature is imaged
+    onto itself with lateral magnification ``n_air / n_water``; Born & Wolf 1999, §4.4).
+    """
+    d = camera.focal_length_mm * 1e-3 / camera.f_number
+    return float(d / WATER_INDEX) if camera.port.kind == "dome" else float(d)
+
+
+def defocus_blur_rad(camera: Camera, depth_m) -> np.ndarray:
+    """Angular diameter (rad) of the defocus disc of points at ``depth_m`` ahead of the pupil.
+
+    ``D_w |1/z − 1/s_f|`` (:func:`aperture_diameter_water_m`, ``s_f = focus_distance_m``); 0 for a
+    camera without a focus distance (a pinhole).
+
+    Examples
+    --------
+    >>> from rigsim.scene.types import Camera, Port
+    >>> cam = Camera(port=Port(kind="flat"), focal_length_mm=24.0, f_number=8.0, focus_distance_m=1.0)
+    >>> float(defocus_blur_rad(cam, 1.0)), round(float(defocus_blur_rad(cam, 0.5)) * 1e3, 6)   # 3 mm at 1/0.5 − 1
+    (0.0, 3.0)
+    """
+    z = np.asarray(depth_m, float)
+    if camera.focus_distance_m is None:
+        return np.zeros(z.shape)
+    with np.errstate(divide="ignore"):
+        return aperture_diameter_water_m(camera) * np.abs(1.0 / z - 1.0 / float(camera.focus_distance_m))
+
+
+def aperture_offsets(camera: Camera, u, v) -> np.ndarray:
+    """Points (…, 3) of the water-side aperture, relative to its centre, for uniform ``u, v`` in [0, 1)².
+
+    Shirley & Chiu's (1997) concentric map of the square onto the disc of diameter
+    :func:`aperture_diameter_water_m`, in the plane across the optical axis.
+    """
+    a = 2.0 * np.asarray(u, float) - 1.0
+    b = 2.0 * np.asarray(v, float) - 1.0
+    first = np.abs(a) > np.abs(b)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = np.where(first, a, b)
+        phi = np.where(first, (np.pi / 4) * b / np.where(a == 0, 1, a), np.pi / 2 - (np.pi / 4) * a / np.where(b == 0, 1, b))
+    r = np.where((a == 0) & (b == 0), 0.0, r) * (0.5 * aperture_diameter_water_m(camera))
+    right, up, _ = camera.frame()
+    return (r * np.cos(phi))[..., None] * right + (r * np.sin(phi))[..., None] * up
+
+
+def _thin_lens(camera: Camera, origin: np.ndarray, direction: np.ndarray, aperture) -> tuple[np.ndarray, np.ndarray]:
+    """The rays of a film position through aperture points (``aperture = (u, v)``): from the aperture
+    point to where the chief ray ``(origin, direction)`` is ``focus_distance_m`` deep."""
+    pupil = np.asarray(camera.position_m, float)
+    fwd = camera.frame()[2]
+    depth0 = (origin - pupil) @ fwd
+    t = (float(camera.focus_distance_m) - depth0) / (direction @ fwd)
+    focus = origin + direction * t[..., None]
+    off = aperture_offsets(camera, *aperture)
+    if camera.port.kind == "dome":
+        start = pupil + off  # the water-side pupil sits at the dome's centre
+        d = focus - start
+        d /= np.linalg.norm(d, axis=-1, keepdims=True)
+        rel = start - pupil  # leave the dome's outer sphere: |rel + s d| = R
+        R = float(camera.port.radius_m + camera.port.thickness_m)
+        bq = rel @ d if rel.ndim == d.ndim else np.sum(rel * d, axis=-1)
+        s = -bq + np.sqrt(np.maximum(bq * bq - np.sum(rel * rel, axis=-1) + R * R, 0.0))
+        return start + d * s[..., None], d
+    start = origin + off  # a flat port: across the window's outer face
+    d = focus - start
+    return start, d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
+def camera_rays(camera: Camera, px, py, *, n_outside: float, aperture=None) -> tuple[np.ndarray, np.ndarray]:
     """Rays leaving the port for film positions ``px``, ``py`` in [0, 1] (see module notes).
 
     Parameters
@@ -130,6 +212,10 @@ def camera_rays(camera: Camera, px, py, *, n_outside: float) -> tuple[np.ndarray
         Film positions, any (equal) shape: 0 is the left / top edge, 1 the right / bottom.
     n_outside
         Refractive index outside the port (:func:`outside_index`).
+    aperture
+        ``(u, v)``, uniform numbers in [0, 1)² of the same shape: the rays through those points of
+        the thin lens's aperture (module notes; a camera without ``focus_distance_m`` ignores them).
+        None: the chief rays.
 
     Returns
     -------
@@ -144,7 +230,10 @@ def camera_rays(camera: Camera, px, py, *, n_outside: float) -> tuple[np.ndarray
     >>> bool(abs(np.degrees(np.arcsin(d[0])) + np.degrees(np.arcsin(np.sin(np.arctan(0.75)) / 1.34))) < 1e-9)
     True
     """
-    return _through_port(camera, air_directions(camera, px, py), float(n_outside))
+    o, d = _through_port(camera, air_directions(camera, px, py), float(n_outside))
+    if aperture is None or camera.focus_distance_m is None:
+        return o, d
+    return _thin_lens(camera, o, d, aperture)
 
 
 def pixel_rays(camera: Camera, width: int, height: int, *, n_outside: float,

@@ -428,12 +428,17 @@ class Scene:
         What the camera looks at.
     daylight
         Ambient daylight at depth, or None.
+    particle_seed
+        Seed of the placement of the water's discrete particles (marine snow,
+        :mod:`rigsim.scene.particles`), >= 0.  Like the daylight field, the particles are an
+        input of the scene: every render (whatever its own seed) and the fast engine see the same.
     """
 
     rig: Rig
     water: Water | None  # None: no water (vacuum/air) — the "clear" ground truth
     targets: tuple[Target, ...]
     daylight: Daylight | None = None
+    particle_seed: Annotated[Int, Field(ge=0)] = 0
 
     @property
     def camera(self) -> Camera:

@@ -24,6 +24,7 @@ from rigsim.spectrum import as_wavelengths, interp_table
 from rigsim.water import absorption as _abs
 from rigsim.water import scattering as _sca
 from rigsim.water.kd import kd as _kd
+from rigsim.water.particles import ParticleField
 from rigsim.water.phase import (
     MixturePhase,
     PhaseFunction,
@@ -32,13 +33,19 @@ from rigsim.water.phase import (
     kopelevich_small_particle,
 )
 
-__all__ = ["Water", "ConstituentWater", "TabulatedWater", "Spectrum1D"]
+__all__ = ["Water", "ConstituentWater", "TabulatedWater", "Spectrum1D", "with_particles"]
 
 
 class Water(ABC):
-    """Inherent optical properties of a homogeneous water body."""
+    """Inherent optical properties of a homogeneous water body.
+
+    ``particles`` is its field of discrete particles (marine snow,
+    :class:`~rigsim.water.particles.ParticleField`) or None; it is not part of the IOPs (see
+    :mod:`rigsim.water.particles`).
+    """
 
     name: str = "water"
+    particles: "ParticleField | None" = None
 
     @abstractmethod
     def a_per_m(self, wavelength_nm) -> np.ndarray:
@@ -159,6 +166,7 @@ class ConstituentWater(Water):
     phytoplankton: bool = False
     pure_water_scattering: str = "kopelevich-1983"
     name: str = field(default="custom", compare=False)
+    particles: ParticleField | None = None
 
     def __post_init__(self):
         for f in ("chl_mg_per_m3", "cdom_a440_per_m", "small_particles_ppm", "large_particles_ppm"):
@@ -245,6 +253,18 @@ class Spectrum1D:
         if self.wavelength_nm is None:
             return np.full(wl.shape, float(self.values[0]))
         return interp_table(wl, self.wavelength_nm, self.values, name=self.label)
+
+
+def with_particles(water: Water, particles: ParticleField | None) -> Water:
+    """A copy of ``water`` with the particle field ``particles`` (None: without particles)."""
+    import copy
+    import dataclasses
+
+    if dataclasses.is_dataclass(water):
+        return dataclasses.replace(water, particles=particles)
+    w = copy.copy(water)
+    w.particles = particles
+    return w
 
 
 class TabulatedWater(Water):

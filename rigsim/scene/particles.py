@@ -1,0 +1,238 @@
+"""The particles of a scene: a seeded Poisson process in the part of the water the camera sees.
+
+A water with a :class:`~rigsim.water.particles.ParticleField` (marine snow) gets its particles
+placed here, once per scene, and both engines draw these same particles (the renderer as spheres,
+:mod:`rigsim.render.mitsuba_scene`; the fast engine as splats, :mod:`rigsim.preview.particles`):
+the same scene and ``Scene.particle_seed`` give the same particles, whatever the render's seed.
+
+Where particles are placed
+--------------------------
+Only where they can show: in the camera's field of view in the water (a frustum bounding the chief
+rays of the film's edges, widened by the largest particle and its defocus disc), outside the port
+and the housing, from the port out to :func:`placement_depth_m`.  That depth is where a particle
+lit by the rig's lights is 10⁻³ as bright as one at :data:`REFERENCE_DEPTH_M` (the lights' inverse
+square and the water's attenuation on both legs, in the clearest visible band) or, with daylight
+only, where the water between it and the camera leaves 1 % of its light; at most
+:data:`MAX_DEPTH_M`.  If that volume would hold more than :data:`MAX_PARTICLES` particles on
+average, the depth is reduced until it holds that many (``ParticleSet.truncated``; the report says
+so).  Within the volume the process is a homogeneous Poisson process: the count is Poisson with
+mean ``N·V``, the points uniform, the diameters drawn independently from the field's size
+distribution (:meth:`~rigsim.water.particles.ParticleField.diameters_mm`).
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+from dataclasses import dataclass
+
+import numpy as np
+
+from rigsim.scene.optics import aperture_diameter_water_m, camera_rays, outside_index, port_reach_m
+from rigsim.scene.types import Scene
+from rigsim.water.particles import ParticleField
+
+__all__ = ["ParticleSet", "scene_particles", "placement_depth_m", "placement_frustum", "MAX_PARTICLES",
+           "MAX_DEPTH_M", "REFERENCE_DEPTH_M", "particle_field_of"]
+
+#: At most this many particles on average in a scene's placement volume.
+MAX_PARTICLES = 300_000
+#: Particles are placed at most this deep (m).
+MAX_DEPTH_M = 30.0
+#: Depth (m) of the particles the far limit is measured against (lit ones just beyond the port).
+REFERENCE_DEPTH_M = 0.3
+#: A lit particle is left out where it is below this fraction of one at REFERENCE_DEPTH_M.
+LIT_FRACTION = 1e-3
+#: With daylight only: left out where the water leaves less than this fraction of its light.
+DAYLIGHT_FRACTION = 1e-2
+#: Wavelengths (nm) over which the clearest band is looked for.
+_VISIBLE_NM = np.arange(400.0, 701.0, 10.0)
+
+
+def particle_field_of(scene: Scene) -> ParticleField | None:
+    """The scene's particle field (its water's), or None."""
+    return getattr(scene.water, "particles", None) if scene.water is not None else None
+
+
+@dataclass(frozen=True, eq=False)
+class ParticleSet:
+    """Particles placed in a scene.
+
+    Attributes
+    ----------
+    position_m
+        (N, 3) centres in world coordinates (m).
+    diameter_m
+        (N,) diameters (m).
+    field
+        The particle field they were drawn from (reflectance, size law).
+    seed
+        ``Scene.particle_seed``.
+    depth_range_m
+        Nearest and farthest depth ahead of the pupil of the placement volume (m).
+    volume_m3, expected
+        Volume of the placement region (m³) and the mean count ``N·V`` of the Poisson process.
+    truncated
+        True if :data:`MAX_PARTICLES` shortened the placement depth.
+    """
+
+    position_m: np.ndarray
+    diameter_m: np.ndarray
+    field: ParticleField
+    seed: int
+    depth_range_m: tuple[float, float]
+    volume_m3: float
+    expected: float
+    truncated: bool
+
+    def __len__(self) -> int:
+        return int(self.diameter_m.shape[0])
+
+    def reflectance(self, wavelength_nm) -> np.ndarray:
+        """ρ(λ) of every particle (the field's; (bands,))."""
+        return self.field.reflectance_at(wavelength_nm)
+
+    def describe(self) -> dict:
+        return {"count": len(self), "expected": self.expected, "seed": self.seed,
+                "depth_range_m": list(self.depth_range_m), "volume_m3": self.volume_m3, "truncated": self.truncated,
+                "field": self.field.describe()}
+
+
+@dataclass(frozen=True)
+class Frustum:
+    """The placement region in camera coordinates: ``|x| <= x0 + tx z``, ``|y| <= y0 + ty z``, ``z0 <= z <= z1``."""
+
+    x0: float
+    tx: float
+    y0: float
+    ty: float
+    z0: float
+    z1: float
+
+    def area(self, z):
+        return 4.0 * (self.x0 + self.tx * z) * (self.y0 + self.ty * z)
+
+    def volume(self, z1: float | None = None) -> float:
+        """∫ area dz from z0 to z1 (exact: the area is quadratic in z)."""
+        z1 = self.z1 if z1 is None else z1
+        a, b = self.x0, self.tx
+        c, d = self.y0, self.ty
+
+        def prim(z):
+            return 4.0 * (a * c * z + (a * d + b * c) * z * z / 2.0 + b * d * z ** 3 / 3.0)
+
+        return float(prim(z1) - prim(self.z0))
+
+
+def placement_frustum(scene: Scene, field: ParticleField, z1: float) -> Frustum:
+    """The frustum bounding the film edges' chief rays, widened by the largest particle's radius and
+    the largest defocus disc there (camera coordinates, depth ``z`` along the optical axis)."""
+    cam = scene.camera
+    n_out = outside_index(scene)
+    t = np.linspace(0.0, 1.0, 33)
+    px = np.concatenate([t, t, np.zeros_like(t), np.ones_like(t)])
+    py = np.concatenate([np.zeros_like(t), np.ones_like(t), t, t])
+    o, d = camera_rays(cam, px, py, n_outside=n_out)
+    right, up, fwd = cam.frame()
+    rel = o - np.asarray(cam.position_m, float)
+    oz, dz = rel @ fwd, d @ fwd
+    sx, sy = (d @ right) / dz, (d @ up) / dz  # slopes
+    ix, iy = rel @ right - oz * sx, rel @ up - oz * sy  # where each ray line crosses depth 0
+    tx, ty = float(np.max(np.abs(sx))), float(np.max(np.abs(sy)))
+    x0, y0 = float(np.max(np.abs(ix))), float(np.max(np.abs(iy)))
+    # widen by the largest particle and its defocus disc: half the aperture at the pupil, growing
+    # as |z/s_f - 1| (the disc's linear radius at depth z); bounded linearly by 1/2 D (1 + z/s_f)
+    r_p = 0.5e-3 * field.d_max_mm
+    half_ap = 0.5 * aperture_diameter_water_m(cam) if cam.focus_distance_m is not None else 0.0
+    grow = half_ap / float(cam.focus_distance_m) if cam.focus_distance_m is not None else 0.0
+    z0 = port_reach_m(cam) + r_p
+    return Frustum(x0=x0 + r_p + half_ap, tx=tx + grow, y0=y0 + r_p + half_ap, ty=ty + grow, z0=z0, z1=max(z1, z0))
+
+
+def _clearest_c(scene: Scene) -> float:
+    wl = _VISIBLE_NM
+    lo, hi = scene.water.wavelength_range_nm
+    wl = wl[(wl >= lo) & (wl <= hi)]
+    if wl.size == 0:
+        wl = np.array([0.5 * (lo + hi)])
+    return float(np.min(scene.water.c_per_m(wl)))
+
+
+def placement_depth_m(scene: Scene) -> float:
+    """Depth (m) beyond which a scene's particles cannot show (module docstring), before the count cap."""
+    c = max(_clearest_c(scene), 1e-6)
+    if scene.lights:
+        z_ref = max(REFERENCE_DEPTH_M, port_reach_m(scene.camera) + 0.05)
+
+        def rel(z):  # brightness of a lit particle at depth z relative to one at z_ref
+            return (z_ref / z) ** 4 * np.exp(-2.0 * c * (z - z_ref))
+
+        lo, hi = z_ref, MAX_DEPTH_M
+        if rel(hi) >= LIT_FRACTION:
+            return MAX_DEPTH_M
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if rel(mid) >= LIT_FRACTION else (lo, mid)
+        return float(hi)
+    return float(min(MAX_DEPTH_M, -np.log(DAYLIGHT_FRACTION) / c))
+
+
+def _rng(scene: Scene) -> np.random.Generator:
+    h = hashlib.blake2b(f"rigsim-particles:{int(scene.particle_seed)}".encode(), digest_size=8).digest()
+    return np.random.default_rng(int.from_bytes(h, "little"))
+
+
+@functools.lru_cache(maxsize=16)
+def scene_particles(scene: Scene) -> ParticleSet | None:
+    """The scene's particles (None if its water has no particle field); cached per scene object.
+
+    Deterministic in the scene and ``scene.particle_seed`` (module docstring).
+
+    Examples
+    --------
+    >>> from rigsim.config.rig import load_rig
+    >>> from rigsim.scene.build import build_scene
+    >>> from rigsim.water import preset
+    >>> from rigsim.water.model import with_particles
+    >>> from rigsim.water.particles import particle_level
+    >>> w = with_particles(preset("coastal"), particle_level("coastal"))
+    >>> sc = build_scene(load_rig("rigs/twin-strobes-45-wide.toml"), w, "colorchecker", 1.5)
+    >>> a, b = scene_particles(sc), scene_particles(build_scene(sc.rig, w, "colorchecker", 1.5))
+    >>> len(a) > 100 and np.array_equal(a.position_m, b.position_m)
+    True
+    """
+    field = particle_field_of(scene)
+    if field is None or field.number_per_m3 <= 0:
+        return None
+    z1 = placement_depth_m(scene)
+    fr = placement_frustum(scene, field, z1)
+    n = float(field.number_per_m3)
+    truncated = False
+    if n * fr.volume() > MAX_PARTICLES:
+        lo, hi = fr.z0, fr.z1
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            lo, hi = (mid, hi) if n * fr.volume(mid) <= MAX_PARTICLES else (lo, mid)
+        fr = Frustum(fr.x0, fr.tx, fr.y0, fr.ty, fr.z0, lo)
+        truncated = True
+    vol = fr.volume()
+    rng = _rng(scene)
+    count = int(rng.poisson(n * vol))
+    # depth by inverting the volume's cumulative distribution (tabulated: the area is quadratic in z)
+    zs = np.linspace(fr.z0, fr.z1, 2049)
+    cdf = np.array([fr.volume(z) for z in zs]) / max(vol, 1e-300)
+    z = np.interp(rng.random(count), cdf, zs)
+    x = (2.0 * rng.random(count) - 1.0) * (fr.x0 + fr.tx * z)
+    y = (2.0 * rng.random(count) - 1.0) * (fr.y0 + fr.ty * z)
+    d_m = field.diameters_mm(rng.random(count)) * 1e-3
+    cam = scene.camera
+    right, up, fwd = cam.frame()
+    pupil = np.asarray(cam.position_m, float)
+    pos = pupil + x[:, None] * right + y[:, None] * up + z[:, None] * fwd
+    # not inside the port or the housing (a restriction of a Poisson process is one)
+    dist = np.linalg.norm(pos - pupil, axis=1)
+    keep = dist > float(cam.housing_radius_m) + 0.5 * d_m
+    if cam.port.kind == "dome":
+        keep &= dist > port_reach_m(cam) + 0.5 * d_m
+    return ParticleSet(position_m=pos[keep], diameter_m=d_m[keep], field=field, seed=int(scene.particle_seed),
+                       depth_range_m=(fr.z0, fr.z1), volume_m3=vol, expected=n * vol, truncated=truncated)
