@@ -39,10 +39,16 @@ LAYER_DOCS = {
     "flash_clear": "``clear`` for the flash, J/(m² sr nm)",
     "flash_direct": "``direct`` for the flash, J/(m² sr nm)",
     "flash_backscatter": "``backscatter`` for the flash, J/(m² sr nm)",
+    "particles": "(rows, cols, bands) what the water's discrete particles (marine snow) add to the radiance: "
+                 "their light less the light they hide (the image without them is radiance − particles; the "
+                 "direct and backscatter layers hold no light of theirs, only their shadow)",
+    "flash_particles": "``particles`` for the flash, J/(m² sr nm)",
+    "particle_id": "(rows, cols) int32 1-based index of the particle giving the pixel the most light (0: none; "
+                   "the instance mask; meta['particles'] describes the set)",
 }
 
 #: Spectral layers that have a continuous (W) part and a flash (J) part.
-SPECTRAL_LAYERS = ("clear", "direct", "backscatter")
+SPECTRAL_LAYERS = ("clear", "direct", "backscatter", "particles")
 #: The image makers.
 ENGINES = ("mitsuba", "preview")
 

@@ -94,6 +94,7 @@ from rigsim.preview.forward import SmallAngle
 from rigsim.preview.geometry import SceneSurfaces, cast_rays, occluded, scene_surfaces
 from rigsim.preview.tiles import default_threads, no_hugepage_advice, row_tiles, run, thread_map
 from rigsim.scene.daylight_field import SceneDaylight, height_factor, path_radiance, scene_daylight
+from rigsim.scene.particles import scene_particles
 from rigsim.scene.phase_tables import phase_tables
 from rigsim.scene.types import Scene, unit
 from rigsim.spectral_image import RenderInfo, SpectralImage
@@ -375,6 +376,40 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
         out_layers["range_m"] = view.range_m
     if "object_id" in layers:
         out_layers["object_id"] = view.oid_c.astype(np.int32)
+    particles_meta = None
+    ps = scene_particles(scene) if has_water else None
+    if ps is not None:  # the water's discrete particles: their light, their shadow on the rest, their ids
+        from rigsim.preview.particles import particle_layers
+
+        kap = water.c - water.b * water.F if forward else water.c
+        day_b = (scene_daylight(scene, req.band_lo_nm, req.band_hi_nm).band_means(wl, bw)
+                 if scene.daylight is not None else None)
+        pl = particle_layers(scene, ps, width=width, height=height, wl=wl, bw=bw, kappa=kap,
+                             range_m=view.range_m, n_outside=n_out, daylight=day_b)
+        cov = pl.coverage[..., None]
+        net = pl.radiance - cov * radiance  # what the particles change: their light less what they hide
+        radiance = radiance + net
+        if "particles" in layers:
+            out_layers["particles"] = net
+        if "flash" in out_layers:
+            net_f = pl.flash - cov * out_layers["flash"]
+            out_layers["flash"] = out_layers["flash"] + net_f
+            if "particles" in layers:
+                out_layers["flash_particles"] = net_f
+        for k in ("direct", "backscatter"):
+            for key in (k, f"flash_{k}"):
+                if key in out_layers:
+                    out_layers[key] = out_layers[key] * (1.0 - cov)
+        if "particle_id" in layers:
+            out_layers["particle_id"] = pl.particle_id
+        particles_meta = {**ps.describe(), "visible": pl.visible}
+    else:
+        if "particle_id" in layers:
+            out_layers["particle_id"] = np.zeros((height, width), np.int32)
+        if "particles" in layers:
+            out_layers["particles"] = np.zeros(shape, np.float32)
+            if "flash" in out_layers:
+                out_layers["flash_particles"] = np.zeros(shape, np.float32)
 
     meta = {
         "renderer": RENDERER_NAME,
@@ -394,6 +429,7 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
         "radiance_reference": "in-water radiance arriving at the port, band-averaged (no port "
                               "transmission or n^2 factor)",
         "daylight_rendered": bool(scene.daylight is not None and has_water) if scene.daylight is not None else None,
+        "particles": particles_meta,
         "preview": {"forward_scatter": forward, "forward_cutoff_deg": float(forward_cutoff_deg),
                     "shadows": bool(shadows), "sub_bands": sub_bands, "pixel_samples": pixel_samples,
                     "backscatter_grid": backscatter_grid, "backscatter_nodes": backscatter_nodes,

@@ -95,7 +95,7 @@ import numpy as np
 
 from rigsim.light.beam import beam_solid_angle_sr, local_to_world, sample_beam_direction
 from rigsim.preview.geometry import SceneSurfaces, cast_rays, occluded
-from rigsim.scene.optics import camera_rays, outside_index, port_reach_m, project_points
+from rigsim.scene.optics import camera_rays, cell_solid_angles, outside_index, port_reach_m, project_points
 from rigsim.scene.phase_tables import PhaseTables
 from rigsim.scene.types import Scene
 
@@ -240,22 +240,6 @@ def _cell_areas(surf: SceneSurfaces) -> np.ndarray:
     return full / cells
 
 
-def _cell_solid_angles(camera, width: int, height: int, cols: int, rows: int, n_out: float) -> np.ndarray:
-    """(rows, cols) solid angle (sr) outside the port of each low-resolution cell."""
-    ce = np.linspace(0.0, 1.0, cols + 1)
-    re = np.linspace(0.0, 1.0, rows + 1)
-    PX, PY = np.meshgrid(ce, re)
-    _, d = camera_rays(camera, PX, PY, n_outside=n_out)
-
-    def tri(a, b, c):  # solid angle of a spherical triangle (Van Oosterom & Strackee 1983)
-        num = np.abs(np.sum(a * np.cross(b, c), axis=-1))
-        den = 1 + np.sum(a * b, -1) + np.sum(b * c, -1) + np.sum(c * a, -1)
-        return 2 * np.arctan2(num, den)
-
-    a, b, c_, d_ = d[:-1, :-1], d[:-1, 1:], d[1:, 1:], d[1:, :-1]
-    return tri(a, b, c_) + tri(a, c_, d_)
-
-
 def _rotate(d: np.ndarray, cos_t: np.ndarray, phi: np.ndarray) -> np.ndarray:
     """Turn unit directions ``d`` by angle acos(cos_t) at azimuth ``phi`` about themselves."""
     sin_t = np.sqrt(np.clip(1.0 - cos_t * cos_t, 0.0, 1.0))
@@ -366,7 +350,7 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
     reach = port_reach_m(cam)
     step = max(width, height) / float(grid)
     cols, rows = max(1, int(np.ceil(width / step))), max(1, int(np.ceil(height / step)))
-    omega = _cell_solid_angles(cam, width, height, cols, rows, n_out)
+    omega = cell_solid_angles(cam, cols, rows, n_outside=n_out)
     r_max = 30.0 / max(float(np.min(c)), 1e-6)
     near_m = max(NEAR_ZONE_M, 2.0 * reach)
     edges = np.geomspace(reach, max(r_max, 2 * reach), N_RANGE_BINS + 1)

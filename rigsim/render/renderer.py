@@ -38,6 +38,7 @@ from rigsim.render.mitsuba_scene import MitsubaScene, build_mitsuba_scene
 from rigsim.render.variant import is_jit, mitsuba, variant
 from rigsim.scene.imaging import IMAGE_LAYERS, check_int, check_scene_for_bands, image_request
 from rigsim.scene.optics import camera_rays, fov_water_deg, outside_index, world_radius_m
+from rigsim.scene.particles import particle_id_image, scene_particles
 from rigsim.scene.types import Scene
 from rigsim.spectral_image import RenderInfo, SpectralImage
 from rigsim.spectrum import COLOUR_GROUPS_NM, DEFAULT_WAVELENGTHS_NM, band_edges, colour_groups
@@ -75,10 +76,16 @@ def _aligned_float(a: np.ndarray):
     return mi.Float(out)
 
 
-def _rays(camera, px, py, n_outside: float):
-    """Mitsuba rays for film positions (Dr.Jit arrays) from the scene's optics (numpy)."""
+def _rays(camera, px, py, n_outside: float, aperture=None):
+    """Mitsuba rays for film positions (Dr.Jit arrays) from the scene's optics (numpy); through the
+    thin lens's aperture points ``aperture = (u, v)`` (Dr.Jit arrays) if given."""
     dr.eval(px, py)
-    o, d = camera_rays(camera, np.asarray(px, np.float64), np.asarray(py, np.float64), n_outside=n_outside)
+    ap = None
+    if aperture is not None:
+        dr.eval(*aperture)
+        ap = tuple(np.asarray(a, np.float64) for a in aperture)
+    o, d = camera_rays(camera, np.asarray(px, np.float64), np.asarray(py, np.float64), n_outside=n_outside,
+                       aperture=ap)
     return (mi.Point3f(*(_aligned_float(o[:, k]) for k in range(3))),
             mi.Vector3f(*(_aligned_float(d[:, k]) for k in range(3))))
 
@@ -133,7 +140,10 @@ def render_pass(ms: MitsubaScene, camera, *, width: int, height: int, spp: int, 
         row = mi.Float(pix // W_o + row0_o)
         col = mi.Float(pix % W_o)
         jit = sampler.next_2d()
-        o, d = _rays(camera, (col + jit.x) / width, (row + jit.y) / height, ms.n_outside)
+        # depth of field (a camera with a focus distance): an aperture point per path
+        ap = sampler.next_2d() if camera.focus_distance_m is not None else None
+        o, d = _rays(camera, (col + jit.x) / width, (row + jit.y) / height, ms.n_outside,
+                     aperture=None if ap is None else (ap.x, ap.y))
         ray = mi.RayDifferential3f(o, d)
         lams, bands = [], []
         for j in range(4):
@@ -406,6 +416,22 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
         results[(g, m)] = np.mean(imgs, axis=0).astype(np.float32)
         if with_bs:
             results[(g, "backscatter")] = np.mean(bss, axis=0).astype(np.float32)
+    # the particles' layer: the full passes again without the particles, with the same random numbers
+    # (a path that meets no particle is the same path in both: the difference holds only the particles'
+    # light and the light they hide)
+    ps = scene_particles(scene) if water else None
+    want_particles = "particles" in layers and ps is not None and len(ps) > 0
+    if want_particles:
+        for pi, (g, m) in enumerate(passes):
+            if m != "full":
+                continue
+            ms = build_mitsuba_scene(scene, lights=groups[g], mode="full", max_depth=max_depth, integrator=integrator,
+                                     ambient=ambient if g == "continuous" else None, particles=False)
+            n_b = spp_used[f"{g}:full"] // spp
+            imgs = [render_pass(ms, scene.camera, width=width, height=height, spp=spp, seed=seed,
+                                pass_index=pi + 4096 * j, band_lo=lo_edges, band_w=bw, tick=tick(f"{g} particles"))[0]
+                    for j in range(n_b)]
+            results[(g, "particles")] = (results[(g, "full")] - np.mean(imgs, axis=0)).astype(np.float32)
     if dropped:
         warnings.warn(f"{dropped} non-finite path samples were dropped", RuntimeWarning, stacklevel=2)
 
@@ -419,22 +445,34 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
         full = results[(g, "full")]
         if g == "strobe":
             out_layers["flash"] = full
-        for k in ("clear", "direct", "backscatter"):
+        for k in ("clear", "direct", "backscatter", "particles"):
             if k not in layers:
                 continue
-            if water:
+            if k == "particles":
+                v = results.get((g, k), zeros)
+            elif water:
                 v = results[(g, k)]
             else:
                 v = zeros if k == "backscatter" else full
             out_layers[f"{prefix}{k}"] = v
     if "range_m" in layers or "object_id" in layers:
-        if geom_scene is None:
+        if geom_scene is None or geom_scene.has_particles:  # the targets only (particles: their own layers)
             geom_scene = build_mitsuba_scene(scene, lights=[], mode="clear", integrator=integrator)
         rng, oid = _geometry_layers(geom_scene, scene, width, height)
         if "range_m" in layers:
             out_layers["range_m"] = rng
         if "object_id" in layers:
             out_layers["object_id"] = oid
+    if "particle_id" in layers:
+        if ps is not None and len(ps):
+            if "range_m" in out_layers:
+                rng_t = out_layers["range_m"]
+            else:
+                rng_t, _ = _geometry_layers(build_mitsuba_scene(scene, lights=[], mode="clear", integrator=integrator),
+                                            scene, width, height)
+            out_layers["particle_id"] = particle_id_image(scene, ps, width, height, rng_t)
+        else:
+            out_layers["particle_id"] = np.zeros((height, width), np.int32)
     legend = {str(i + 1): s.label for i, s in enumerate(geom_scene.surfaces)} if geom_scene else {}
 
     meta = {
@@ -463,6 +501,7 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
                               "transmission or n^2 factor)",
         "dropped_samples": dropped,
         "daylight_rendered": True if scene.daylight is not None else None,
+        "particles": ps.describe() if ps is not None else None,
         "daylight": ({**dataclasses.asdict(scene.daylight), "field": ambient.meta}
                      if ambient is not None else None),
     }

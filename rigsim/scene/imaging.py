@@ -25,7 +25,7 @@ __all__ = ["IMAGE_LAYERS", "MAX_IMAGE_SIDE", "ImageRequest", "image_request", "i
 
 #: Ground-truth layers an image can carry (besides the radiance / flash): see
 #: :data:`rigsim.spectral_image.LAYER_DOCS`.
-IMAGE_LAYERS = ("range_m", "clear", "object_id", "direct", "backscatter")
+IMAGE_LAYERS = ("range_m", "clear", "object_id", "direct", "backscatter", "particles", "particle_id")
 #: Largest image side (pixels).
 MAX_IMAGE_SIDE = 16384
 

@@ -78,6 +78,7 @@ __all__ = [
     "aperture_diameter_water_m",
     "defocus_blur_rad",
     "aperture_offsets",
+    "cell_solid_angles",
 ]
 
 
@@ -193,7 +194,7 @@ def _thin_lens(camera: Camera, origin: np.ndarray, direction: np.ndarray, apertu
         d /= np.linalg.norm(d, axis=-1, keepdims=True)
         rel = start - pupil  # leave the dome's outer sphere: |rel + s d| = R
         R = float(camera.port.radius_m + camera.port.thickness_m)
-        bq = rel @ d if rel.ndim == d.ndim else np.sum(rel * d, axis=-1)
+        bq = np.sum(rel * d, axis=-1)
         s = -bq + np.sqrt(np.maximum(bq * bq - np.sum(rel * rel, axis=-1) + R * R, 0.0))
         return start + d * s[..., None], d
     start = origin + off  # a flat port: across the window's outer face
@@ -255,6 +256,24 @@ def pixel_rays(camera: Camera, width: int, height: int, *, n_outside: float,
     PX, PY = np.meshgrid(col / width, row / height)
     o, d = camera_rays(camera, PX, PY, n_outside=n_outside)
     return o, d, col, row
+
+
+def cell_solid_angles(camera: Camera, cols: int, rows: int, *, n_outside: float) -> np.ndarray:
+    """(rows, cols) solid angle (sr) outside the port of each cell of a ``cols × rows`` grid over the film
+    (``cols, rows = width, height``: the pixels), from the chief rays through the cells' corners (each cell
+    two spherical triangles, Van Oosterom & Strackee 1983)."""
+    ce = np.linspace(0.0, 1.0, cols + 1)
+    re = np.linspace(0.0, 1.0, rows + 1)
+    PX, PY = np.meshgrid(ce, re)
+    _, d = camera_rays(camera, PX, PY, n_outside=n_outside)
+
+    def tri(a, b, c):
+        num = np.abs(np.sum(a * np.cross(b, c), axis=-1))
+        den = 1 + np.sum(a * b, -1) + np.sum(b * c, -1) + np.sum(c * a, -1)
+        return 2 * np.arctan2(num, den)
+
+    a, b, c_, d_ = d[:-1, :-1], d[:-1, 1:], d[1:, 1:], d[1:, :-1]
+    return tri(a, b, c_) + tri(a, c_, d_)
 
 
 def fov_water_deg(camera: Camera, n_outside: float = WATER_INDEX) -> float:

@@ -28,12 +28,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rigsim.scene.optics import aperture_diameter_water_m, camera_rays, outside_index, port_reach_m
+from rigsim.scene.optics import (aperture_diameter_water_m, camera_rays, defocus_blur_rad, outside_index,
+                                 port_reach_m, project_points)
 from rigsim.scene.types import Scene
 from rigsim.water.particles import ParticleField
 
 __all__ = ["ParticleSet", "scene_particles", "placement_depth_m", "placement_frustum", "MAX_PARTICLES",
-           "MAX_DEPTH_M", "REFERENCE_DEPTH_M", "particle_field_of"]
+           "MAX_DEPTH_M", "REFERENCE_DEPTH_M", "particle_field_of", "Footprints", "particle_footprints",
+           "footprint_samples", "particle_id_image", "SPLAT_POINTS_MAX"]
 
 #: At most this many particles on average in a scene's placement volume.
 MAX_PARTICLES = 300_000
@@ -236,3 +238,150 @@ def scene_particles(scene: Scene) -> ParticleSet | None:
         keep &= dist > port_reach_m(cam) + 0.5 * d_m
     return ParticleSet(position_m=pos[keep], diameter_m=d_m[keep], field=field, seed=int(scene.particle_seed),
                        depth_range_m=(fr.z0, fr.z1), volume_m3=vol, expected=n * vol, truncated=truncated)
+
+
+# --- the particles' images ------------------------------------------------------------------------
+#: Most points a particle's image is sampled with (discs wider than ~9 pixels).
+SPLAT_POINTS_MAX = 256
+
+
+@dataclass(frozen=True, eq=False)
+class Footprints:
+    """Where each particle's image lies in a ``width × height`` image.
+
+    The image of a particle is a disc: the particle's own angular radius ``d / 2r`` and the defocus
+    disc's (:func:`~rigsim.scene.optics.defocus_blur_rad`) combined in quadrature, i.e. a disc of radius
+    ``radius_m`` across the line of sight, laid out in the image by the local Jacobian of
+    :func:`~rigsim.scene.optics.project_points` (the port's distortion included).
+
+    Attributes
+    ----------
+    uv
+        (N, 2) image position of each centre (col, row in pixels; NaN: not imaged).
+    jacobian
+        (N, 2, 2) pixels per metre across the line of sight (image axes × the plane's two axes).
+    radius_m, radius_px
+        (N,) the disc's radius across the line of sight (m) and its largest extent in pixels.
+    range_m, depth_m
+        (N,) distance from the pupil and depth along the optical axis (m).
+    to_camera
+        (N, 3) unit directions from each particle to the pupil.
+    imaged
+        (N,) bool: the disc reaches the image and the particle is in front of the pupil.
+    """
+
+    uv: np.ndarray
+    jacobian: np.ndarray
+    radius_m: np.ndarray
+    radius_px: np.ndarray
+    range_m: np.ndarray
+    depth_m: np.ndarray
+    to_camera: np.ndarray
+    imaged: np.ndarray
+
+
+def particle_footprints(scene: Scene, ps: ParticleSet, width: int, height: int) -> Footprints:
+    """The :class:`Footprints` of ``ps`` in a ``width × height`` image of ``scene``."""
+    cam = scene.camera
+    n_out = outside_index(scene)
+    right, up, fwd = cam.frame()
+    pupil = np.asarray(cam.position_m, float)
+    P = np.asarray(ps.position_m, float)
+    D = np.asarray(ps.diameter_m, float)
+    rel = P - pupil
+    rng = np.linalg.norm(rel, axis=1)
+    to_cam = -rel / np.maximum(rng, 1e-12)[:, None]
+    depth = rel @ fwd
+    e1 = np.cross(to_cam, up)
+    e1 /= np.maximum(np.linalg.norm(e1, axis=1, keepdims=True), 1e-12)
+    e2 = np.cross(e1, to_cam)
+    h = 1e-3 * rng[:, None]
+    uv = project_points(cam, P, width, height, n_outside=n_out)
+    u1 = project_points(cam, P + h * e1, width, height, n_outside=n_out)
+    u2 = project_points(cam, P + h * e2, width, height, n_outside=n_out)
+    J = np.stack([(u1 - uv) / h, (u2 - uv) / h], axis=-1)
+    blur = defocus_blur_rad(cam, np.maximum(depth, 1e-9))
+    R_m = np.sqrt((0.5 * D) ** 2 + (0.5 * blur * rng) ** 2)
+    with np.errstate(invalid="ignore"):
+        R_px = R_m * np.max(np.abs(J).sum(axis=2), axis=1)
+        ok = np.all(np.isfinite(uv), axis=1) & np.all(np.isfinite(J.reshape(len(P), -1)), axis=1) & (depth > 0)
+        ok &= (uv[:, 0] > -R_px - 1) & (uv[:, 0] < width + R_px + 1) & (uv[:, 1] > -R_px - 1) \
+            & (uv[:, 1] < height + R_px + 1)
+    return Footprints(uv=uv, jacobian=J, radius_m=R_m, radius_px=np.where(ok, R_px, 0.0), range_m=rng,
+                      depth_m=depth, to_camera=to_cam, imaged=ok)
+
+
+def _spiral(k: int) -> np.ndarray:
+    """``k`` points (k, 2) evenly spread over the unit disc (Vogel's sunflower spiral)."""
+    i = np.arange(k) + 0.5
+    r = np.sqrt(i / k)
+    a = i * np.pi * (3.0 - np.sqrt(5.0))
+    return np.stack([r * np.cos(a), r * np.sin(a)], axis=-1)
+
+
+def footprint_samples(fp: Footprints, width: int, height: int, range_m: np.ndarray):
+    """Points spread evenly over each imaged particle's disc, batch by batch of equal point count.
+
+    Yields ``(particle, pixel, weight)``: 1-D arrays over the points that fall inside the image and in
+    front of the targets (``range_m``, (rows, cols), inf for open water): the particle's index, the flat
+    pixel index (``row · width + col``) and the point's share of the particle's image (1/k of the disc's
+    k points; points outside the image or behind a target carry their share away).  At least 4 points
+    per disc, about 4 per pixel it covers, at most :data:`SPLAT_POINTS_MAX`.
+    """
+    idx = np.flatnonzero(fp.imaged)
+    if idx.size == 0:
+        return
+    kpts = np.clip(np.ceil(np.pi * fp.radius_px[idx] ** 2 * 4.0), 4, SPLAT_POINTS_MAX)
+    kpts = (2 ** np.ceil(np.log2(kpts))).astype(int)
+    for k in np.unique(kpts):
+        sel = idx[kpts == k]
+        q = _spiral(int(k))
+        pts = fp.uv[sel, None, :] + np.einsum("nij,kj->nki", fp.jacobian[sel], q) * fp.radius_m[sel, None, None]
+        col = np.floor(pts[..., 0]).astype(np.int64)
+        row = np.floor(pts[..., 1]).astype(np.int64)
+        inside = (col >= 0) & (col < width) & (row >= 0) & (row < height)
+        cc, rr = np.clip(col, 0, width - 1), np.clip(row, 0, height - 1)
+        front = inside & (fp.range_m[sel, None] < range_m[rr, cc])
+        if not front.any():
+            continue
+        who = np.broadcast_to(sel[:, None], front.shape)[front]
+        yield who, (rr * width + cc)[front], np.full(who.shape, 1.0 / k)
+
+
+def particle_id_image(scene: Scene, ps: ParticleSet, width: int, height: int, range_m: np.ndarray) -> np.ndarray:
+    """(rows, cols) int32: the 1-based index of the nearest particle whose image (its disc,
+    :class:`Footprints`) covers the pixel's centre in front of the targets (``range_m``), 0 where none
+    does: the instance mask of the particles, from the geometry alone, the same for both engines (as
+    ``object_id`` is the first surface on the ray through the pixel's centre)."""
+    fp = particle_footprints(scene, ps, width, height)
+    best = np.full(height * width, np.inf)
+    out = np.zeros(height * width, np.int64)
+    idx = np.flatnonzero(fp.imaged)
+    if idx.size == 0:
+        return out.reshape(height, width).astype(np.int32)
+    half = np.ceil(fp.radius_px[idx]).astype(int)
+    half = np.where(half < 1, 1, 2 ** np.ceil(np.log2(np.maximum(half, 1))).astype(int))
+    for m in np.unique(half):
+        sel = idx[half == m]
+        Jinv = np.linalg.inv(fp.jacobian[sel])  # metres across the view per pixel
+        o = np.arange(-m, m + 1)
+        OX, OY = np.meshgrid(o, o)
+        c0 = np.floor(fp.uv[sel, 0])[:, None] + OX.ravel()[None, :]
+        r0 = np.floor(fp.uv[sel, 1])[:, None] + OY.ravel()[None, :]
+        dx = np.stack([c0 + 0.5 - fp.uv[sel, 0:1], r0 + 0.5 - fp.uv[sel, 1:2]], axis=-1)  # (n, k, 2) pixels
+        dm = np.einsum("nij,nkj->nki", Jinv, dx)
+        inside = (np.sum(dm * dm, axis=-1) <= fp.radius_m[sel, None] ** 2) & (c0 >= 0) & (c0 < width) \
+            & (r0 >= 0) & (r0 < height)
+        cc = np.clip(c0, 0, width - 1).astype(np.int64)
+        rr = np.clip(r0, 0, height - 1).astype(np.int64)
+        inside &= fp.range_m[sel, None] < range_m[rr, cc]
+        if not inside.any():
+            continue
+        who = np.broadcast_to(sel[:, None], inside.shape)[inside]
+        pix = (rr * width + cc)[inside]
+        order = np.argsort(-fp.range_m[who], kind="stable")  # far first: the nearest is written last
+        pix_o, who_o = pix[order], who[order]
+        near = fp.range_m[who_o] < best[pix_o]
+        out[pix_o[near]] = who_o[near] + 1
+        np.minimum.at(best, pix_o, fp.range_m[who_o])
+    return out.reshape(height, width).astype(np.int32)

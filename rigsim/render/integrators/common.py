@@ -311,10 +311,11 @@ class AureoleTable:
 
 def target_table(scene):
     """``(ShapePtr array, DiscreteDistribution over areas, 1/total area)`` of the scene's opaque
-    shapes (the targets), or None if it has none."""
-
-
-    shapes = [sh for sh in scene.shapes() if not mi.has_flag(sh.bsdf().flags(), mi.BSDFFlags.Null)]
+    shapes (the targets), or None if it has none.  The discrete particles (the shape with id
+    ``"particles"``, :mod:`rigsim.render.mitsuba_scene`) are not targets: the light they reflect
+    is reached by the paths' own continuations, not by this next-event estimate."""
+    shapes = [sh for sh in scene.shapes() if not mi.has_flag(sh.bsdf().flags(), mi.BSDFFlags.Null)
+              and sh.id() != "particles"]
     if not shapes:
         return None
     areas = np.array([float(np.asarray(sh.surface_area()).ravel()[0]) for sh in shapes])

@@ -1,0 +1,175 @@
+"""Discrete particles (marine snow) in the fast engine: each particle an analytic splat.
+
+The particles are the scene's own (:func:`rigsim.scene.particles.scene_particles`, the same the
+renderer draws as spheres).  For each particle of diameter ``d`` at distance ``r`` from the pupil:
+
+* **Lighting** — each light gives the irradiance ``I(λ) f(θ) / r_l² · e^{−κ r_l}`` on the beam's
+  cross-section (``f`` the beam pattern, ``r_l`` the distance from the light, ``κ = c − b F`` the
+  attenuation with the small-angle forward-scattered light kept in the beam, as the analytic image
+  model's target lighting before its blur; :mod:`rigsim.preview.model`); daylight gives the sun beam
+  (× the caustic pattern) and the diffuse field, each × its height factor (the scene's daylight
+  field, :mod:`rigsim.scene.daylight_field`).  No shadows from targets; the multiply scattered light
+  is not on particles.
+* **Scattering towards the camera** — a diffuse sphere: ``I = E · π d²/4 · ρ · p(θ)`` with the
+  Lambert-sphere phase function at the angle between the light's path and the line of sight
+  (:func:`rigsim.water.particles.lambert_sphere_intensity`); for the diffuse daylight, the phase
+  function integrated over the field's bins for the line of sight of each part of the image.
+* **To the camera** — ``I e^{−κ s} / r²`` at the entrance pupil (``s`` the water path from the port;
+  the small-angle-scattered halo of the speck kept in the speck), spread uniformly over the
+  particle's image: a disc whose angular radius combines the particle's own (``d / 2r``) and the
+  defocus disc's (:func:`rigsim.scene.optics.defocus_blur_rad`) in quadrature, laid out in the
+  image through the local Jacobian of :func:`rigsim.scene.optics.project_points` (the port's
+  distortion included; :func:`rigsim.scene.particles.particle_footprints`) and sampled by a fixed
+  spiral of points (more for larger discs); each point's share is radiance ``÷`` its pixel's solid
+  angle (:func:`rigsim.scene.optics.cell_solid_angles`).
+* **Occlusion** — a particle is hidden where a target is nearer than it (the pixel's range); it
+  hides what lies behind it in proportion to the solid angle it covers, spread like its light
+  (``coverage``: the image without particles is multiplied by ``1 − coverage``; the veil between the
+  camera and the particle is covered too, a small excess for the near particles that matter).
+
+The result: the particles' radiance (continuous lights and daylight) and flash layers, the
+coverage, and ``particle_id`` — the instance mask of the ground truth
+(:func:`rigsim.scene.particles.particle_id_image`, geometry only, the same in both engines).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rigsim.preview.backscatter import beam_angle
+from rigsim.scene.optics import cell_solid_angles, port_reach_m
+from rigsim.scene.particles import ParticleSet, footprint_samples, particle_footprints, particle_id_image
+from rigsim.scene.types import Scene, unit
+from rigsim.spectrum import band_average
+from rigsim.water.particles import lambert_sphere_phase
+
+__all__ = ["ParticleLayers", "particle_layers"]
+#: Film grid (per side) on which the diffuse daylight's phase integral is tabulated.
+_DAY_GRID = 9
+
+
+@dataclass(frozen=True, eq=False)
+class ParticleLayers:
+    """The particles' part of an image (see the module docstring).
+
+    Attributes
+    ----------
+    radiance, flash
+        (rows, cols, bands) float32: continuous lights + daylight, W/(m² sr nm); strobes, J/(m² sr nm).
+    coverage
+        (rows, cols) float32: fraction of each pixel's view the particles hide (0 … 1).
+    particle_id
+        (rows, cols) int32: :func:`rigsim.scene.particles.particle_id_image` (the nearest particle whose
+        image covers the pixel; 0: none).
+    visible
+        Number of particles that put light into the image.
+    """
+
+    radiance: np.ndarray
+    flash: np.ndarray
+    coverage: np.ndarray
+    particle_id: np.ndarray
+    visible: int
+
+
+def _diffuse_phase_table(day, diffuse: np.ndarray, cam, n_out: float) -> np.ndarray:
+    """(g, g, B): ``π ∫ L p(θ) dΩ`` over the diffuse field (``diffuse`` (B, T, P) at the bands) for the
+    line of sight of each cell of a film grid: a particle's intensity is this × ``d²/4 · ρ``."""
+    from rigsim.scene.optics import camera_rays
+
+    g = _DAY_GRID
+    t = (np.arange(g) + 0.5) / g
+    PX, PY = np.meshgrid(t, t)
+    _, d = camera_rays(cam, PX, PY, n_outside=n_out)  # camera → water; towards the camera: −d
+    dirs, dw = day.field.bin_directions(3)  # (T, P, S, 3) looking into each bin: light travels along −dir
+    out = np.empty((g, g, diffuse.shape[0]))
+    for i in range(g):
+        for j in range(g):
+            cos_s = np.einsum("tpsk,k->tps", dirs, d[i, j])  # (−dir) · (−d)
+            pbin = lambert_sphere_phase(cos_s).sum(axis=-1) * dw  # (T, P)
+            out[i, j] = np.pi * np.einsum("btp,tp->b", diffuse, pbin)
+    return out
+
+
+def particle_layers(scene: Scene, ps: ParticleSet, *, width: int, height: int, wl: np.ndarray, bw: np.ndarray,
+                    kappa: np.ndarray, range_m: np.ndarray, n_outside: float, daylight=None) -> ParticleLayers:
+    """The particles' layers of a ``width × height`` image at bands ``wl`` (nm, widths ``bw``).
+
+    Parameters
+    ----------
+    kappa
+        (B,) attenuation with the forward-scattered light kept (1/m) at the band centres (``c`` without
+        forward scattering).
+    range_m
+        (rows, cols) range of the targets (inf: open water) from the pupil.
+    daylight
+        The scene's :class:`~rigsim.scene.daylight_field.SceneDaylight` as band means at ``wl``, or None.
+    """
+    B = len(wl)
+    shape = (height, width, B)
+    cam = scene.camera
+    fp = particle_footprints(scene, ps, width, height)
+    P = np.asarray(ps.position_m, float)
+    D = np.asarray(ps.diameter_m, float)
+    rng, to_cam = fp.range_m, fp.to_camera
+    s_water = np.maximum(rng - port_reach_m(cam), 0.0)
+    rho = ps.reflectance(wl)  # (B,)
+
+    # --- intensity towards the camera (n, B) of the imaged particles, per light group
+    idx = np.flatnonzero(fp.imaged)
+    inten = {"continuous": np.zeros((len(idx), B)), "strobe": np.zeros((len(idx), B))}
+    area = np.pi / 4.0 * D[idx] ** 2
+    for light in scene.lights:
+        if not np.any(np.asarray(light.axial_intensity, float) > 0):
+            continue
+        I_b = band_average(np.asarray(light.wavelength_nm, float), np.asarray(light.axial_intensity, float),
+                           wl - bw / 2, wl + bw / 2)
+        v = P[idx] - np.asarray(light.position_m, float)
+        r_l = np.linalg.norm(v, axis=1)
+        vh = v / np.maximum(r_l, 1e-12)[:, None]
+        f = light.beam.relative_intensity(beam_angle(vh, unit(light.aim)))
+        E = (f / np.maximum(r_l, 1e-9) ** 2)[:, None] * I_b[None, :] * np.exp(-np.outer(r_l, kappa))
+        p = lambert_sphere_phase(np.sum(vh * to_cam[idx], axis=1))
+        inten[light.kind] += E * (area * p)[:, None] * rho[None, :]
+    if daylight is not None and idx.size:
+        from rigsim.scene.daylight_field import height_factor
+
+        dy = (P[idx, 1] - daylight.y0)[:, None]
+        bi = daylight.band_index(wl)
+        sun = np.asarray(daylight.sun_direction, float)
+        e_sun = daylight.caustic(P[idx])[:, None] * daylight.beam[bi][None, :] * height_factor(daylight.k_beam[bi], dy,
+                                                                                               np.exp)
+        inten["continuous"] += e_sun * (area * lambert_sphere_phase(to_cam[idx] @ sun))[:, None] * rho[None, :]
+        tab = _diffuse_phase_table(daylight, daylight.diffuse[bi], cam, n_outside)  # (g, g, B)
+        g = tab.shape[0]
+        gi = np.clip((fp.uv[idx, 1] / height * g).astype(int), 0, g - 1)
+        gj = np.clip((fp.uv[idx, 0] / width * g).astype(int), 0, g - 1)
+        inten["continuous"] += tab[gi, gj] * (area / np.pi)[:, None] * rho[None, :] \
+            * height_factor(daylight.k_diffuse[bi], dy, np.exp)
+
+    # --- to the pupil (irradiance there, W/(m² nm)), and the splats
+    at_pupil = {}
+    pos = np.full(len(P), -1)
+    pos[idx] = np.arange(len(idx))
+    T = np.exp(-np.outer(s_water[idx], kappa)) / (rng[idx] ** 2)[:, None]
+    for k, v in inten.items():
+        at_pupil[k] = v * T
+    solid = cell_solid_angles(cam, width, height, n_outside=n_outside).ravel()  # sr per pixel
+    geo = np.zeros(len(P))
+    geo[idx] = area / rng[idx] ** 2  # solid angle each particle hides (sr)
+    out = {k: np.zeros(height * width * B) for k in inten}
+    cover = np.zeros(height * width)
+    seen = np.zeros(len(P), bool)
+    for who, pix, share in footprint_samples(fp, width, height, range_m):
+        seen[who] = True
+        w = share / solid[pix]  # radiance per unit irradiance at the pupil
+        bins = (pix[:, None] * B + np.arange(B)).ravel()
+        for key, val in at_pupil.items():
+            out[key] += np.bincount(bins, weights=(val[pos[who]] * w[:, None]).ravel(), minlength=height * width * B)
+        cover += np.bincount(pix, weights=geo[who] * w, minlength=height * width)
+    return ParticleLayers(radiance=out["continuous"].reshape(shape).astype(np.float32),
+                          flash=out["strobe"].reshape(shape).astype(np.float32),
+                          coverage=np.clip(cover, 0.0, 1.0).reshape(height, width).astype(np.float32),
+                          particle_id=particle_id_image(scene, ps, width, height, range_m), visible=int(seen.sum()))
