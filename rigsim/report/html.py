@@ -15,7 +15,7 @@ import numpy as np
 from rigsim.fileio import atomic_write_text
 
 __all__ = ["write_report", "summary_sentences", "sensor_sentences", "noise_sentences", "trust_sentences",
-           "trust_section"]
+           "trust_section", "speck_sentences"]
 
 
 def _read_csv(path: Path) -> list[dict]:
@@ -153,6 +153,33 @@ def sensor_sentences(rows: list[dict], sensors: list[str]) -> list[str]:
     return out
 
 
+def speck_sentences(rows: list[dict]) -> list[str]:
+    """Per water with discrete particles (marine snow): each rig's visible specks and their share of the
+    light (:mod:`rigsim.metrics.specks`), over the distances of the sweep, the rig with fewest first."""
+    by_water: dict[str, dict[str, list[dict]]] = defaultdict(lambda: defaultdict(list))
+    for r in rows:
+        if r.get("speck_count") is not None and not _is_extension(r):
+            by_water[r["water"]][r["rig"]].append(r)
+    out = []
+    for water, by_rig in by_water.items():
+        level = next(iter(by_rig.values()))[0].get("particles_level")
+        stats = []
+        for rig, rs in by_rig.items():
+            per_scene = {(r["target"], r["distance_m"]): r for r in rs}  # one row per sensor: the scene's numbers
+            counts = [r["speck_count"] for r in per_scene.values()]
+            shares = [r["speck_share"] for r in per_scene.values()]
+            stats.append((float(np.median(counts)), rig, float(np.median(shares)), min(counts), max(counts)))
+        stats.sort()
+        parts = [f"{rig} {med:.0f} specks (from {lo:.0f} to {hi:.0f}; {share:.1%} of the image's light)"
+                 for med, rig, share, lo, hi in stats]
+        txt = f"Marine snow in {water} (particle level {level}): median over the scenes, " + "; ".join(parts)
+        if len(stats) > 1 and stats[-1][0] > 0:
+            txt += (f" — {stats[0][1]} lights {1 - stats[0][0] / stats[-1][0]:.0%} fewer specks than "
+                    f"{stats[-1][1]}")
+        out.append(txt + ".")
+    return out
+
+
 def write_report(study_dir: str | Path) -> Path:
     """Write ``report.html`` into a study folder from its tables and images."""
     import matplotlib
@@ -181,6 +208,7 @@ def write_report(study_dir: str | Path) -> Path:
     for t in targets:
         items += summary_sentences(vis, sensor=sensors[0] if sensors else None, target=t)
     items += sensor_sentences(rows, sensors)
+    items += speck_sentences(rows)
     r_spec = spec["render"]
     if r_spec["engine"] != "preview":
         items += noise_sentences(rows, r_spec.get("noise_target"), r_spec.get("max_spp") or 8 * r_spec["spp"])
@@ -227,6 +255,33 @@ def write_report(study_dir: str | Path) -> Path:
                              f"<img src='{per_water_plot(col, label, logy=logy, hline=hline, target=t)}'>")
         if parts:
             sec.append(f"<h2>Versus distance — {html.escape(t)}</h2>" + "".join(parts))
+    snow = [w for w in waters if any(r.get("speck_count") is not None and r["water"] == w for r in sweep_rows)]
+    if snow:
+        fig, axes = plt.subplots(2, len(snow), figsize=(4.6 * len(snow), 6.4), squeeze=False)
+        for j, w in enumerate(snow):
+            for rig in rigs:
+                for t in targets:
+                    per = {r["distance_m"]: r for r in sweep_rows if r["water"] == w and r["rig"] == rig
+                           and r["target"] == t and r.get("speck_count") is not None}
+                    ds = sorted(per)
+                    if not ds:
+                        continue
+                    axes[0][j].plot(ds, [per[x]["speck_count"] for x in ds], "o-", ms=3, label=f"{rig} / {t}")
+                    axes[1][j].plot(ds, [per[x]["speck_share"] * 100 for x in ds], "o-", ms=3, label=f"{rig} / {t}")
+            axes[0][j].set_title(w)
+            axes[1][j].set_xlabel("distance to the subject (m)")
+            for ax in axes[:, j]:
+                ax.grid(alpha=0.3)
+        axes[0][0].set_ylabel("visible specks")
+        axes[1][0].set_ylabel("specks' share of the light (%)")
+        axes[0][-1].legend(fontsize=7)
+        fig.tight_layout()
+        sec.append("<h2>Backscatter specks (marine snow)</h2>"
+                   f"<img src='{_png(fig)}'><p>A speck is a particle with a pixel where its light is at least "
+                   f"5 % of the subject's mean luminance (scene radiance, one flash; rigsim.metrics.specks); its share "
+                   f"is the particles' light as a fraction of the whole image's.  Fewer and dimmer specks is better: "
+                   f"strobes farther out and aimed past the subject light less of the water just in front of the "
+                   f"port, where the brightest specks and the large out-of-focus discs are.</p>")
     if vis:
         fig, axes = plt.subplots(1, len(targets), figsize=(6 * len(targets), 3.8), squeeze=False)
         for ax, t in zip(axes[0], targets):
@@ -323,7 +378,8 @@ _REGION_KINDS = (("chart patches", lambda q, r: q == "radiance" and r.startswith
                  ("disk", lambda q, r: q == "radiance" and r == "disk"),
                  ("open water", lambda q, r: q == "radiance" and r == "open water"),
                  ("contrast", lambda q, r: q == "contrast_radiance"),
-                 ("backscatter share", lambda q, r: q == "backscatter_share"))
+                 ("backscatter share", lambda q, r: q == "backscatter_share"),
+                 ("speck share", lambda q, r: q == "speck_share"))
 
 
 def _worst(rows: list[dict]) -> dict | None:

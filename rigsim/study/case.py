@@ -51,6 +51,13 @@ def case_scene(spec: StudySpec, case: Case):
 
 #: the layers a study renders besides the radiance
 STUDY_LAYERS = ("range_m", "object_id", "backscatter")
+#: and in a water with discrete particles (marine snow)
+PARTICLE_LAYERS = ("particles", "particle_id")
+
+
+def study_layers(water) -> tuple[str, ...]:
+    """The layers a study renders of a case in ``water``."""
+    return STUDY_LAYERS + (PARTICLE_LAYERS if getattr(water, "particles", None) is not None else ())
 
 
 def case_engine(spec: StudySpec, case: Case) -> str:
@@ -69,20 +76,23 @@ def compute_case(spec: StudySpec, case: Case) -> dict:
     from rigsim.sensor.photograph import photograph
     from rigsim.sensor.pipeline import Exposure
 
+    from rigsim.metrics.specks import speck_metrics
+
     scene, water, target_kind = case_scene(spec, case)
     seed = spec.case_seed(case)
     rs = spec.render
     engine = case_engine(spec, case)
+    layers = study_layers(water)
     if engine == "preview":
         from rigsim.preview import render_preview as _render
 
-        si = _render(scene, width=rs.width, height=rs.height, wavelengths_nm=rs.wavelengths_nm, layers=STUDY_LAYERS,
+        si = _render(scene, width=rs.width, height=rs.height, wavelengths_nm=rs.wavelengths_nm, layers=layers,
                      multiple=rs.preview_multiple, seed=seed)
     else:
         from rigsim.render import render as _render
 
         si = _render(scene, width=rs.width, height=rs.height, spp=rs.spp, seed=seed, integrator=rs.integrator,
-                     wavelengths_nm=rs.wavelengths_nm, layers=STUDY_LAYERS,
+                     wavelengths_nm=rs.wavelengths_nm, layers=layers,
                      noise_target=rs.noise_target, max_spp=rs.max_spp)
     masks = target_masks(np.asarray(si.layers["object_id"]), si.meta.get("object_ids", {}), target_kind)
     has_flash = "flash" in si.layers
@@ -95,6 +105,13 @@ def compute_case(spec: StudySpec, case: Case) -> dict:
             "engine": engine, "integrator": rs.integrator if engine != "preview" else None,
             "extension": case.extension, "case_id": spec.case_id(case)}
     base.update(scene_metrics(si, target_kind, masks=masks)[0])  # sensor-independent numbers
+    pm = si.meta.get("particles")
+    if pm is not None:  # marine snow: the specks the subject is seen through (rigsim.metrics.specks)
+        base.update(speck_metrics(si, masks.get("target")))
+        base.update({"particles_level": pm["field"]["level"] or "custom", "particles_placed": pm["count"]})
+    else:
+        base.update({"speck_count": None, "speck_share": None, "speck_share_subject": None,
+                     "particles_level": None, "particles_placed": None})
     files = {}
     rows = []
     for sname in spec.sensors:
@@ -149,14 +166,16 @@ def compute_check(spec: StudySpec, case: Case) -> dict:
     ck, wl = spec.check, spec.render.wavelengths_nm
     seed = spec.case_seed(case)
     t0 = time.perf_counter()
-    fast = render_preview(scene, width=ck.width, height=ck.height, wavelengths_nm=wl, layers=STUDY_LAYERS,
+    layers = study_layers(water)
+    fast = render_preview(scene, width=ck.width, height=ck.height, wavelengths_nm=wl, layers=layers,
                           multiple=spec.render.preview_multiple, seed=seed)
     t_fast = time.perf_counter() - t0
     refs = []
     t0 = time.perf_counter()
     for i in range(ck.seeds):
         refs.append(render(scene, width=ck.width, height=ck.height, spp=ck.spp, seed=(seed + 7919 * i) % 2**32,
-                           integrator=ck.integrator, wavelengths_nm=wl, layers=("object_id", "backscatter")))
+                           integrator=ck.integrator, wavelengths_nm=wl,
+                           layers=("object_id", "backscatter") + tuple(k for k in layers if k.startswith("particle"))))
     t_mc = time.perf_counter() - t0
     regions, metrics = compare_renders(fast, refs, target_kind)
     record = {"case_id": spec.case_id(case), "case": case.key(), "rig": case.rig_name, "water": case.water_name,

@@ -130,7 +130,9 @@ def test_outputs_match_the_renderer_interface():
     assert isinstance(img, SpectralImage)
     assert img.radiance.shape == (12, 12, 31) and img.radiance.dtype == np.float32
     assert set(img.layers) == {"range_m", "object_id", "clear", "direct", "backscatter", "flash", "flash_clear",
-                               "flash_direct", "flash_backscatter"}
+                               "flash_direct", "flash_backscatter", "particles", "flash_particles", "particle_id"}
+    # a water without discrete particles: no specks, no particle ids
+    assert not np.any(img.layers["particles"]) and not np.any(img.layers["particle_id"])
     assert img.layers["object_id"].dtype == np.int32 and img.layers["range_m"].dtype == np.float32
     assert img.meta["renderer"] == RENDERER_NAME
     assert img.meta["object_ids"] == {"1": "target 0 white-disk: disk"}
