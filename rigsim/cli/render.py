@@ -26,6 +26,11 @@ def _parse_size(text: str) -> tuple[int, int]:
 def render_cmd(
     rig: Path = typer.Argument(..., help="Rig TOML file (see rigs/)."),
     water: str = typer.Option(..., "--water", help="Water preset name or water TOML file."),
+    particles: str = typer.Option(None, "--particles",
+                                  help="Marine snow: clear-ocean | coastal | plankton-bloom | silt-near-bottom | none "
+                                       "(default: the water file's own)."),
+    particle_seed: int = typer.Option(0, "--particle-seed", min=0,
+                                      help="Seed of the particles' placement (a scene input: every --seed sees them)."),
     distance: float = typer.Option(..., "--distance", help="Distance from the entrance pupil to the target, m."),
     target: str = typer.Option("colorchecker", "--target",
                                help="colorchecker | black-disk | white-disk | slanted-edge | bottom | MESH.obj/.ply"),
@@ -69,7 +74,12 @@ def render_cmd(
         from rigsim.scene.daylight_field import daylight_from_options
 
         daylight = daylight_from_options(depth, sun_zenith_deg=sun_zenith, model=daylight_model, waves=waves)
-    scene = build_scene(load_rig(rig), load_water(water), target, distance, size_m=target_size, daylight=daylight)
+    scene = build_scene(load_rig(rig), load_water(water, particles=particles), target, distance, size_m=target_size,
+                        daylight=daylight)
+    if particle_seed:
+        import dataclasses
+
+        scene = dataclasses.replace(scene, particle_seed=particle_seed)
     with output_folder(out):  # a folder that cannot be written fails now, not after the render
         _render_into(out, scene, rig=rig, water=water, distance=distance, target=target, width=width,
                      height=height, spp=spp, noise_target=noise_target, max_spp=max_spp, seed=seed, wl=wl,
@@ -84,6 +94,8 @@ def _render_into(out: Path, scene, *, rig, water, distance, target, width, heigh
     from rigsim.fileio import staged_output
 
     layers = ("range_m", "clear", "object_id")
+    if getattr(scene.water, "particles", None) is not None:
+        layers += ("particles", "particle_id")
     if engine == "preview":
         from rigsim.preview import render_preview
 

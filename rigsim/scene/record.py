@@ -34,7 +34,8 @@ import numpy as np
 from rigsim.errors import ConfigError
 from rigsim.scene.phase_tables import phase_tables
 from rigsim.scene.types import BeamPattern, Camera, Daylight, Light, Port, Rig, Scene, Target
-from rigsim.water.model import ConstituentWater, Spectrum1D, TabulatedWater, Water
+from rigsim.water.model import ConstituentWater, Spectrum1D, TabulatedWater, Water, with_particles
+from rigsim.water.particles import ParticleField
 from rigsim.water.phase import LogAngleGrid, MixturePhase, TabulatedPhase
 
 __all__ = ["scene_record", "scene_from_record", "water_record", "water_from_record", "RECORD_VERSION"]
@@ -103,7 +104,7 @@ def water_record(water: Water | None) -> dict | None:
     if water is None:
         return None
     if isinstance(water, ConstituentWater):
-        return {"kind": "constituents", **_plain(water)}
+        return {"kind": "constituents", **_plain(water)}  # its particles among its fields
     if isinstance(water, TabulatedWater):
         t = phase_tables(water.phase, water.wavelength_range_nm)
         g = t.grid
@@ -111,7 +112,7 @@ def water_record(water: Water | None) -> dict | None:
                 "a": _spectrum1d(water._a), "b": _spectrum1d(water._b),
                 "posed_wavelength_nm": None if water.posed_wavelength_nm is None
                 else np.asarray(water.posed_wavelength_nm, float).tolist(),
-                "extra": _plain(water.extra),
+                "extra": _plain(water.extra), "particles": _plain(water.particles),
                 "phase": {"name": t.name, "grid": {"psi_min_rad": g.psi_min_rad, "n_log": g.n_log, "n_back": g.n_back},
                           "masses": t.masses.tolist(), "weight_wavelength_nm": t.weight_wavelength_nm.tolist(),
                           "weights": t.weights.tolist()}}
@@ -149,8 +150,10 @@ def water_from_record(d: dict | None) -> Water | None:
     if d is None:
         return None
     kind = d.get("kind")
+    particles = None if d.get("particles") is None else _build(ParticleField, d["particles"])
     if kind == "constituents":
-        return _build(ConstituentWater, {k: v for k, v in d.items() if k != "kind"})
+        return with_particles(_build(ConstituentWater, {k: v for k, v in d.items() if k not in ("kind", "particles")}),
+                              particles)
     if kind != "iop":
         raise ConfigError(f"unknown water record kind {kind!r}", field="water.kind", allowed="constituents, iop")
     posed = d.get("posed_wavelength_nm")
@@ -161,8 +164,8 @@ def water_from_record(d: dict | None) -> Water | None:
     if posed is None and tab.name in preset_names():
         named = preset(tab.name)
         if _same_iops(named, tab):
-            return named
-    return tab
+            return with_particles(named, particles)
+    return with_particles(tab, particles)
 
 
 # ----------------------------------------------------------------------------- scene
@@ -174,7 +177,8 @@ def scene_record(scene: Scene) -> dict:
                     "camera": _plain(rig.camera), "lights": [_plain(l) for l in rig.lights]},
             "water": water_record(scene.water),
             "targets": [_plain(t) for t in scene.targets],
-            "daylight": None if scene.daylight is None else _plain(scene.daylight)}
+            "daylight": None if scene.daylight is None else _plain(scene.daylight),
+            "particle_seed": int(scene.particle_seed)}
 
 
 def scene_from_record(d: dict) -> Scene:
@@ -188,7 +192,8 @@ def scene_from_record(d: dict) -> Scene:
                   source=r.get("source", ""), description=r.get("description", ""))
         return Scene(rig=rig, water=water_from_record(d.get("water")),
                      targets=tuple(_build(Target, t) for t in d["targets"]),
-                     daylight=None if d.get("daylight") is None else _build(Daylight, d["daylight"]))
+                     daylight=None if d.get("daylight") is None else _build(Daylight, d["daylight"]),
+                     particle_seed=int(d.get("particle_seed", 0)))
     except ConfigError:
         raise
     except (KeyError, TypeError, ValueError) as exc:

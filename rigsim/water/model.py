@@ -260,6 +260,8 @@ def with_particles(water: Water, particles: ParticleField | None) -> Water:
     import copy
     import dataclasses
 
+    if water.particles == particles:
+        return water  # the same object (a preset stays the cached preset)
     if dataclasses.is_dataclass(water):
         return dataclasses.replace(water, particles=particles)
     w = copy.copy(water)

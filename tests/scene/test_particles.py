@@ -198,3 +198,14 @@ def test_water_show_states_the_particles_contribution():
     bad = subprocess.run([sys.executable, "-m", "rigsim.cli", "water", "show", "coastal", "--particles", "foam"],
                          capture_output=True, text=True)
     assert bad.returncode == 2 and bad.stderr.count("\n") == 1 and "particles" in bad.stderr
+
+
+def test_a_scene_record_keeps_the_particles_and_their_seed():
+    """An image's provenance (scene.json) brings back the same particles (capture, develop and reports read it)."""
+    from rigsim.scene.record import scene_from_record, scene_record
+
+    for water, level in (("coastal", "coastal"), ("jerlov-3C", "plankton-bloom")):
+        sc = _scene(water=water, level=level, seed=7)
+        back = scene_from_record(json.loads(json.dumps(scene_record(sc))))
+        assert back.particle_seed == 7 and back.water.particles == sc.water.particles
+        np.testing.assert_array_equal(scene_particles(back).position_m, scene_particles(sc).position_m)
