@@ -72,7 +72,7 @@ CAMERA_VARS = {"c_focal_length_mm": "focal_length_mm", "c_f_number": "f_number",
 #: Seconds after the last edit at which every page is sent the server's values of what was edited.
 _RESYNC_S = 0.4
 COND_VARS = ("water", "use_constituents", "chl", "cdom", "small", "large", "depth_m", "distance_m", "target",
-             "target_size", "sensor", "exposure_mode", "shutter_inv", "iso", "flash_pct", "white_balance")
+             "target_size", "sensor", "exposure_mode", "shutter_inv", "iso", "flash_pct", "white_balance", "particles")
 
 
 #: The variables pages edit (their server values are sent back to every page after edits).
@@ -121,6 +121,9 @@ def metric_rows(pred: Prediction) -> list[dict]:
         add("snr_white", "SNR (white)", "–", "sensor temporal SNR at the white patch (EMVA 1288)")
     add("delta_e_mean", "Colour error ΔE2000", f"{m['delta_e_mean']:.1f}" if "delta_e_mean" in m else "–",
         "mean over the 24 chart patches vs the chart in daylight (after white balance)")
+    if m.get("speck_count") is not None and "speck_share" in m:
+        add("speck_count", "Specks (marine snow)", f"{m['speck_count']:.0f}  ({100 * m['speck_share']:.1f} % of the light)",
+            "particles lit to at least 5 % of the subject's brightness, and the particles' share of the image's light")
     return rows
 
 
@@ -262,6 +265,9 @@ class RigDesigner:
 
         s = self.state
         self.waters = list(preset_names())
+        from rigsim.water.particles import particle_level_names
+
+        self.particle_levels = ["none", *particle_level_names()]
         self.sensors = list(available_sensors())
         s.update({
             "engine": preview_engine()[0],
@@ -275,6 +281,7 @@ class RigDesigner:
             "l_beam_profile": "", "spectrum_items": list(SPECTRA),
             "water_items": self.waters, "water": self.cond.water, "use_constituents": False,
             "chl": None, "cdom": None, "small": None, "large": None, "constituents_ok": True,
+            "particle_items": self.particle_levels, "particles": self.cond.particles,
             "depth_m": self.cond.depth_m, "distance_m": self.cond.distance_m,
             "target_items": list(TARGETS), "target": self.cond.target,
             "target_size_items": list(TARGET_SIZES), "target_size": "fills 50% of frame",
@@ -495,15 +502,18 @@ class RigDesigner:
             if not 0 <= fp <= 100:
                 raise ConfigError(f"out of range: {fp:g} %", field="strobe output", allowed="0 … 100 %")
             kw = {"shutter_s": 1.0 / inv, "iso": iso, "flash_scale": fp / 100.0}
+        if s.particles not in self.particle_levels:
+            raise ConfigError(f"unknown particle level {s.particles!r}", field="marine snow",
+                              allowed=", ".join(self.particle_levels))
         return Conditions(water=s.water, water_overrides=overrides, distance_m=d, target=s.target,
                           target_fill=TARGET_SIZES[s.target_size], sensor=s.sensor,
                           exposure="manual" if s.exposure_mode == "manual" else "auto",
-                          white_balance=s.white_balance, depth_m=depth, **kw)
+                          white_balance=s.white_balance, depth_m=depth, particles=s.particles, **kw)
 
     def _on_cond(self, **_):
         try:
             cond = self._conditions()
-            load_water_cached(cond.water, cond.water_overrides)
+            load_water_cached(cond.water, cond.water_overrides, cond.particles)
         except ConfigError as exc:
             self._refuse(None, exc)
             return

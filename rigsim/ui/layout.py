@@ -167,6 +167,9 @@ def build(app) -> None:
                                 v3.VTextField(v_model=(var,), label=lab, type="number", density="compact",
                                               variant="outlined", hide_details=True, placeholder="preset",
                                               style="width: 48%; margin: 1%")
+                        v3.VSelect(v_model=("particles",), items=("particle_items",),
+                                   label="marine snow (particles lit as specks)", density="compact",
+                                   hide_details=True, variant="outlined", classes="mt-2", id="particles-sel")
                         _num(v3, html, "Depth (tints the 3-D view)", "depth_m", 0, 60, 1, "m", err=False)
                 # --- subject
                 with v3.VExpansionPanel(title="Subject", value="subject"):

@@ -53,7 +53,7 @@ PREVIEW_WAVELENGTHS_NM = tuple(np.arange(410.0, 700.0, 20.0).tolist())
 #: Band centres for converged renders (nm): 10 nm bands covering 400–700 nm.
 RENDER_WAVELENGTHS_NM = tuple(np.arange(405.0, 700.0, 10.0).tolist())
 #: Ground-truth layers every prediction needs (masks and the backscatter split).
-LAYERS = ("range_m", "object_id", "backscatter")
+LAYERS = ("range_m", "object_id", "backscatter", "particles", "particle_id")
 #: Targets the designer offers.
 TARGETS = ("colorchecker", "black-disk", "white-disk", "slanted-edge")
 #: White balance choices: ``auto`` = the chart's neutral 5 patch (a grey card), else grey world.
@@ -124,6 +124,10 @@ class Conditions:
     depth_m
         Camera depth (m): tints the water in the 3-D view only; the prediction is lit by the
         rig's lights alone (studies with ``depth_m`` add daylight at depth).
+    particles
+        Marine snow: ``"none"`` or a particle level (:func:`rigsim.water.particles.particle_level_names`);
+        the specks are the same particles whatever the rig (a scene input, seed 0), so they move only
+        in brightness as a strobe is dragged.
     """
 
     water: str = "coastal"
@@ -138,6 +142,7 @@ class Conditions:
     flash_scale: float = 1.0
     white_balance: str = "auto"
     depth_m: float = 10.0
+    particles: str = "none"
 
     def replace(self, **kw) -> "Conditions":
         return dataclasses.replace(self, **kw)
@@ -203,11 +208,11 @@ def _full_render(spp: int, seed: int):
 # ----------------------------------------------------------------------------- inputs
 
 @functools.lru_cache(maxsize=32)
-def load_water_cached(spec: str, overrides: tuple[tuple[str, float], ...] = ()):
+def load_water_cached(spec: str, overrides: tuple[tuple[str, float], ...] = (), particles: str = "none"):
     """:func:`rigsim.config.water.load_water`, cached (waters are immutable)."""
     from rigsim.config.water import load_water
 
-    return load_water(spec, **dict(overrides))
+    return load_water(spec, particles=particles, **dict(overrides))
 
 
 def image_size(rig: Rig, width: int) -> tuple[int, int]:
@@ -232,7 +237,7 @@ def _scene(rig: Rig, cond: Conditions, distance_m: float | None = None, fill: fl
         if not 0 < fill <= 1.5:
             raise ConfigError(f"target fill must be within (0, 1.5], got {fill}", field="target_fill")
         size = fill * 2 * d * math.tan(math.radians(fov_water_deg(rig.camera)) / 2)
-    water = load_water_cached(cond.water, tuple(cond.water_overrides))
+    water = load_water_cached(cond.water, tuple(cond.water_overrides), cond.particles)
     return build_scene(rig, water, cond.target, d, size_m=size)
 
 
@@ -240,11 +245,17 @@ def _scene(rig: Rig, cond: Conditions, distance_m: float | None = None, fill: fl
 
 def measure(si, target_kind: str, *, cap=None, sensor=None, exposure=None, masks=None,
             radiance_metrics: bool = True) -> tuple[dict[str, float], dict]:
-    """The study's numbers for one image: :func:`rigsim.metrics.scene.scene_metrics`."""
+    """The study's numbers for one image: :func:`rigsim.metrics.scene.scene_metrics` (and, with marine snow,
+    :func:`rigsim.metrics.specks.speck_metrics`)."""
     from rigsim.metrics.scene import scene_metrics
 
-    return scene_metrics(si, target_kind, cap=cap, sensor=sensor, exposure=exposure, masks=masks,
-                         radiance_metrics=radiance_metrics)
+    m, masks = scene_metrics(si, target_kind, cap=cap, sensor=sensor, exposure=exposure, masks=masks,
+                             radiance_metrics=radiance_metrics)
+    if radiance_metrics and si.meta.get("particles"):
+        from rigsim.metrics.specks import speck_metrics
+
+        m.update({k: v for k, v in speck_metrics(si, masks.get("target")).items() if k != "speck_threshold"})
+    return m, masks
 
 
 def _develop(si, rig: Rig, cond: Conditions, masks: dict, seed: int):

@@ -42,6 +42,23 @@ def test_contrast_falls_with_distance(doc):
     assert pts[1]["contrast_radiance"] < pts[0]["contrast_radiance"]
 
 
+@pytest.mark.render
+def test_marine_snow_specks_fall_as_the_strobes_swing_out(doc):
+    """With marine snow chosen, the designer counts the lit specks; dragging both strobes from 0.2 to 0.8 m
+    lights fewer of them (the same particles: they only dim), and without particles there is no such row."""
+    from rigsim.ui.app import metric_rows
+
+    cond = Conditions(water="coastal", distance_m=1.5, particles="coastal")
+    close = predict(doc.edit_light(0, "arm_length_m", 0.2).edit_light(1, "arm_length_m", 0.2).rig(), cond)
+    wide = predict(doc.edit_light(0, "arm_length_m", 0.8).edit_light(1, "arm_length_m", 0.8).rig(), cond)
+    assert close.metrics["speck_count"] > 100
+    assert wide.metrics["speck_count"] < 0.7 * close.metrics["speck_count"]
+    assert wide.metrics["speck_share"] < close.metrics["speck_share"]
+    assert "speck_count" in {r["key"] for r in metric_rows(close)}
+    plain = predict(doc.rig(), cond.replace(particles="none"))
+    assert "speck_count" not in plain.metrics and "speck_count" not in {r["key"] for r in metric_rows(plain)}
+
+
 def test_bad_conditions_are_one_line(doc):
     with pytest.raises(ConfigError, match="closer than the port"):
         predict(doc.rig(), Conditions(distance_m=0.05))
