@@ -43,7 +43,7 @@ LAYER_DOCS = {
                  "their light less the light they hide (the image without them is radiance − particles; the "
                  "direct and backscatter layers hold no light of theirs, only their shadow)",
     "flash_particles": "``particles`` for the flash, J/(m² sr nm)",
-    "particle_id": "(rows, cols) int32 1-based index of the particle giving the pixel the most light (0: none; "
+    "particle_id": "(rows, cols) int32 1-based index of the nearest particle whose image reaches into the pixel (0: none; "
                    "the instance mask; meta['particles'] describes the set)",
 }
 

@@ -86,6 +86,10 @@ def draw_sample(spec: DatasetSpec, index: int, seed: int) -> dict:
         rec["bottom_altitude_m"] = _uniform(rng, spec.bottom_altitude_m)
     rec["render_seed"] = int(rng.integers(0, 2**31 - 1))
     rec["noise_seed"] = int(rng.integers(0, 2**31 - 1))
+    # marine snow: drawn last, so that a spec without it draws the samples it always did
+    if spec.particle_probability > 0 and rng.random() < spec.particle_probability:
+        rec["particles"] = {"level": str(rng.choice(spec.particle_levels)),
+                            "seed": int(rng.integers(0, 2**31 - 1))}
     return rec
 
 
@@ -135,7 +139,14 @@ def build_sample_scene(spec: DatasetSpec, rec: dict):
             yaw_deg=o["yaw_deg"], pitch_deg=o["pitch_deg"]))
     if "bottom_altitude_m" in rec:
         targets.append(Target(kind="bottom", distance_m=rec["bottom_altitude_m"], size_m=200.0))
-    return Scene(rig=rig, water=water, targets=tuple(targets)), water
+    seed = 0
+    if rec.get("particles"):
+        from rigsim.water.model import with_particles
+        from rigsim.water.particles import particle_level
+
+        water = with_particles(water, particle_level(rec["particles"]["level"]))
+        seed = int(rec["particles"]["seed"])
+    return Scene(rig=rig, water=water, targets=tuple(targets), particle_seed=seed), water
 
 
 def _noise_free_linear(si, sensor, exposure, gains, ccm, layer=None) -> np.ndarray:
@@ -178,8 +189,10 @@ def compute_sample(args: tuple[DatasetSpec, int, int, dict | None]) -> dict:
     if override:
         rec.update(override)
     scene, water = build_sample_scene(spec, rec)
+    snow = getattr(water, "particles", None) is not None
     si = render(scene, width=spec.width, height=spec.height, spp=spec.spp, seed=rec["render_seed"],
-                wavelengths_nm=spec.wavelengths_nm, layers=("range_m", "object_id", "clear", "backscatter"))
+                wavelengths_nm=spec.wavelengths_nm,
+                layers=("range_m", "object_id", "clear", "backscatter") + (("particles", "particle_id") if snow else ()))
     sensor = load_sensor(rec["sensor"])
     lens = lens_for(si)
     exposure = auto_exposure(si, sensor, lens=lens)
@@ -202,6 +215,18 @@ def compute_sample(args: tuple[DatasetSpec, int, int, dict | None]) -> dict:
     trans = np.where(finite[..., None], np.exp(-np.where(finite, rng_m, 0)[..., None] * c_ch), 0.0).astype(np.float32)
     backscatter = _noise_free_linear(si, sensor, exposure, gains, under.ccm, layer="backscatter").astype(np.float32)
     legend = si.meta.get("object_ids", {})
+    extra = {}
+    if snow:  # the particles' instance masks and their (net) light through the same processing
+        from rigsim.metrics.scene import luminance
+        from rigsim.metrics.specks import visible_specks
+
+        extra["particle_id"] = np.asarray(si.layers["particle_id"], np.uint32)
+        extra["particles_linear"] = _noise_free_linear(si, sensor, exposure, gains, under.ccm,
+                                                       layer="particles").astype(np.float32)
+        ref = float(np.median(luminance(np.asarray(under.linear_rgb, float))))
+        extra["specks"] = visible_specks(luminance(extra["particles_linear"]), extra["particle_id"], ref).astype(np.uint32)
+        rec["particles"] = {**rec["particles"], **{k: v for k, v in si.meta["particles"].items() if k != "field"},
+                            "field": si.meta["particles"]["field"]}
     rec.update({
         "water_description": water.describe(), "c_550_per_m": float(water.c_per_m(550.0)),
         "channel_attenuation_per_m": [float(x) for x in c_ch],
@@ -215,4 +240,4 @@ def compute_sample(args: tuple[DatasetSpec, int, int, dict | None]) -> dict:
     return {"record": rec, "image_srgb": under.srgb, "image_linear": np.asarray(under.linear_rgb, np.float32),
             "clean_srgb": clean.srgb, "clean_linear": np.asarray(clean.linear_rgb, np.float32),
             "range_m": rng_m, "transmission": trans, "backscatter_linear": backscatter,
-            "object_id": np.asarray(si.layers["object_id"], np.uint16), "capture": under}
+            "object_id": np.asarray(si.layers["object_id"], np.uint16), "capture": under, **extra}

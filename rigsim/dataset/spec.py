@@ -74,6 +74,8 @@ class DatasetSpec:
     cdom_a440_per_m: tuple[float, float]
     small_particles_ppm: tuple[float, float]
     large_particles_ppm: tuple[float, float]
+    particle_levels: tuple[str, ...]
+    particle_probability: float
     rigs: tuple[str, ...]
     power_fraction: tuple[float, float]
     sensors: tuple[str, ...]
@@ -142,7 +144,9 @@ class DatasetTable(FileModel):
 
 
 class WaterRanges(FileModel):
-    """``[water]``: presets drawn uniformly, or constituents (log-uniform chl and CDOM, uniform particles)."""
+    """``[water]``: presets drawn uniformly, or constituents (log-uniform chl and CDOM, uniform particles);
+    with probability ``particle_probability`` marine snow of one of ``particle_levels`` (uniformly), its
+    placement seeded per sample."""
 
     presets: _Names = ("clear", "coastal")
     constituent_probability: _Probability = 0.0
@@ -150,6 +154,8 @@ class WaterRanges(FileModel):
     cdom_a440_per_m: value_range(positive=True) = (0.001, 0.5)
     small_particles_ppm: value_range() = (0.0, 0.3)
     large_particles_ppm: value_range() = (0.0, 0.5)
+    particle_levels: _Names = ("clear-ocean", "coastal")
+    particle_probability: _Probability = 0.0
 
 
 class RigRanges(FileModel):
@@ -225,6 +231,16 @@ def load_dataset_spec(path: str | Path) -> DatasetSpec:
             preset(p)
         except ConfigError as exc:
             raise ConfigError(exc.message, file=path, field=f"water.presets[{i}]", allowed=exc.allowed) from None
+    from rigsim.water.particles import particle_level
+
+    for i, lv in enumerate(wt.particle_levels):
+        try:
+            particle_level(lv)
+        except ConfigError as exc:
+            raise ConfigError(exc.message, file=path, field=f"water.particle_levels[{i}]", allowed=exc.allowed) from None
+    if wt.particle_probability > 0 and not wt.particle_levels:
+        raise ConfigError("no particle levels to draw from", file=path, field="water.particle_levels",
+                          allowed="at least one level, or particle_probability = 0")
     if not wt.presets and wt.constituent_probability < 1.0:
         raise ConfigError("no presets to draw from", file=path, field="water.presets",
                           allowed="at least one preset, or constituent_probability = 1")
@@ -273,7 +289,8 @@ def load_dataset_spec(path: str | Path) -> DatasetSpec:
         height=ds.height, spp=ds.spp, wavelengths_nm=ds.wavelengths, presets=wt.presets,
         constituent_probability=wt.constituent_probability, chl_mg_per_m3=wt.chl_mg_per_m3,
         cdom_a440_per_m=wt.cdom_a440_per_m, small_particles_ppm=wt.small_particles_ppm,
-        large_particles_ppm=wt.large_particles_ppm, rigs=tuple(rigs), power_fraction=rg.power_fraction,
+        large_particles_ppm=wt.large_particles_ppm, particle_levels=wt.particle_levels,
+        particle_probability=wt.particle_probability, rigs=tuple(rigs), power_fraction=rg.power_fraction,
         sensors=sn.names, noise=sn.noise, distance_m=dist, objects=(int(sc.objects[0]), int(sc.objects[1])),
         kinds=sc.kinds, meshes=tuple(meshes), size_fraction=sc.size_fraction, reflectances=sc.reflectances,
         bottom_probability=sc.bottom_probability, bottom_altitude_m=sc.bottom_altitude_m)

@@ -18,6 +18,15 @@ Layout of ``DIR``::
         backscatter_linear.tiff       float32 linear sRGB of the light scattered by the water into
                                       the camera without reaching a surface (noise-free, same processing)
         mask.png                      16-bit object ids (0: water; legend in record.json)
+        specks.png                    (marine snow only) 16-bit instance mask of the specks that show: the
+                                      particle's 1-based index where its light in the pixel is at least 5 % of
+                                      the image's median luminance (rigsim.metrics.specks; 0: none; indices
+                                      above 65 535 wrap, specks.tiff holds them whole)
+        specks.tiff                   (marine snow only) the same as uint32
+        particle_id.tiff              (marine snow only) uint32 index of the nearest particle whose image
+                                      reaches into the pixel, shown or not (every particle in view)
+        particles_linear.tiff         (marine snow only) float32 linear sRGB of what the particles add to the
+                                      image: their light less the light they hide (same processing)
         record.json                   every drawn parameter and derived value; written last: its
                                       presence means the sample is complete
 
@@ -82,6 +91,17 @@ def _store(out: Path, index: int, res: dict) -> None:
     atomic_write_bytes(d / "transmission.tiff", _tiff(res["transmission"], "exp(-c_channel * range) per channel"))
     atomic_write_bytes(d / "backscatter_linear.tiff", _tiff(res["backscatter_linear"], "backscatter, linear sRGB"))
     atomic_write_bytes(d / "mask.png", _png(res["object_id"]))
+    if "particle_id" in res:
+        import tifffile
+
+        buf = io.BytesIO()
+        tifffile.imwrite(buf, np.asarray(res["particle_id"], np.uint32), metadata={"description": "particle ids, 1-based"})
+        atomic_write_bytes(d / "particle_id.tiff", buf.getvalue())
+        buf = io.BytesIO()
+        tifffile.imwrite(buf, np.asarray(res["specks"], np.uint32), metadata={"description": "visible specks, 1-based"})
+        atomic_write_bytes(d / "specks.tiff", buf.getvalue())
+        atomic_write_bytes(d / "specks.png", _png((np.asarray(res["specks"]) & 0xFFFF).astype(np.uint16)))
+        atomic_write_bytes(d / "particles_linear.tiff", _tiff(res["particles_linear"], "particles' net light, linear sRGB"))
     atomic_write_text(d / "record.json", json.dumps(res["record"], indent=1, default=float))
 
 
@@ -102,7 +122,9 @@ def _manifest_row(rec: dict, folder: str) -> dict:
             "distance_m": min(o["distance_m"] for o in rec["objects"]),
             "bottom_altitude_m": rec.get("bottom_altitude_m"),
             "exposure_time_s": rec["exposure"]["exposure_time_s"], "iso": rec["exposure"]["iso"],
-            "flash_scale": rec["exposure"].get("flash_scale")}
+            "flash_scale": rec["exposure"].get("flash_scale"),
+            "particles_level": (rec.get("particles") or {}).get("level"),
+            "particles_count": (rec.get("particles") or {}).get("count")}
 
 
 def write_manifest(out: Path, n: int) -> Path:

@@ -9,7 +9,7 @@ front of the subject.  From a SpectralImage with the ``particles`` and ``particl
   least ``threshold`` × the subject's mean luminance (:data:`SPECK_THRESHOLD`, 5 %: a speck a
   twentieth as bright as the subject is plainly seen against the dark water around it; a dimmer
   one is lost in the veil and the sensor's noise).  A pixel belongs to the particle of its
-  ``particle_id`` (the nearest whose image covers the pixel's centre).
+  ``particle_id`` (the nearest whose image reaches into the pixel).
 * ``speck_share`` — the particles' light as a share of all the light in the image (luminance;
   their net contribution where positive).
 * ``speck_share_subject`` — the same over the subject's pixels only: how much of what the subject
@@ -24,11 +24,19 @@ import numpy as np
 
 from rigsim.metrics.scene import photopic_luminance
 
-__all__ = ["SPECK_THRESHOLD", "speck_metrics", "speck_numbers"]
+__all__ = ["SPECK_THRESHOLD", "speck_metrics", "speck_numbers", "visible_specks"]
 
 #: A particle counts as a visible speck where its light in a pixel is at least this × the subject's mean
 #: luminance.
 SPECK_THRESHOLD = 0.05
+
+
+def visible_specks(particles: np.ndarray, particle_id: np.ndarray, reference: float, *,
+                   threshold: float = SPECK_THRESHOLD) -> np.ndarray:
+    """(rows, cols) instance mask of the specks that show: ``particle_id`` where the particles' light
+    (luminance, same unit as ``reference``) is at least ``threshold × reference``, else 0."""
+    ids = np.asarray(particle_id)
+    return np.where((np.asarray(particles, float) >= threshold * float(reference)) & (ids > 0), ids, 0)
 
 
 def speck_numbers(luminance: np.ndarray, particles: np.ndarray, particle_id: np.ndarray,
@@ -63,7 +71,7 @@ def speck_numbers(luminance: np.ndarray, particles: np.ndarray, particle_id: np.
     ids = np.asarray(particle_id)
     mask = None if subject_mask is None else np.asarray(subject_mask, bool)
     subject = float(lum[mask].mean()) if mask is not None and mask.any() else float(np.median(lum))
-    shows = (lp >= threshold * subject) & (ids > 0)
+    shows = visible_specks(lp, ids, subject, threshold=threshold) > 0
     total = float(lum.sum())
     pos = np.clip(lp, 0.0, None)
     return {"speck_count": int(np.unique(ids[shows]).size),

@@ -62,7 +62,7 @@ class ParticleLayers:
         (rows, cols) float32: fraction of each pixel's view the particles hide (0 … 1).
     particle_id
         (rows, cols) int32: :func:`rigsim.scene.particles.particle_id_image` (the nearest particle whose
-        image covers the pixel; 0: none).
+        image reaches into the pixel; 0: none).
     visible
         Number of particles that put light into the image.
     """

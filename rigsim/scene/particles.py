@@ -350,9 +350,9 @@ def footprint_samples(fp: Footprints, width: int, height: int, range_m: np.ndarr
 
 def particle_id_image(scene: Scene, ps: ParticleSet, width: int, height: int, range_m: np.ndarray) -> np.ndarray:
     """(rows, cols) int32: the 1-based index of the nearest particle whose image (its disc,
-    :class:`Footprints`) covers the pixel's centre in front of the targets (``range_m``), 0 where none
-    does: the instance mask of the particles, from the geometry alone, the same for both engines (as
-    ``object_id`` is the first surface on the ray through the pixel's centre)."""
+    :class:`Footprints`) reaches into the pixel in front of the targets (``range_m``), 0 where none
+    does: the instance mask of the particles, from the geometry alone, the same for both engines.  A
+    particle smaller than a pixel marks the pixel it lies in, so its light is inside its mask."""
     fp = particle_footprints(scene, ps, width, height)
     best = np.full(height * width, np.inf)
     out = np.zeros(height * width, np.int64)
@@ -368,7 +368,10 @@ def particle_id_image(scene: Scene, ps: ParticleSet, width: int, height: int, ra
         OX, OY = np.meshgrid(o, o)
         c0 = np.floor(fp.uv[sel, 0])[:, None] + OX.ravel()[None, :]
         r0 = np.floor(fp.uv[sel, 1])[:, None] + OY.ravel()[None, :]
-        dx = np.stack([c0 + 0.5 - fp.uv[sel, 0:1], r0 + 0.5 - fp.uv[sel, 1:2]], axis=-1)  # (n, k, 2) pixels
+        # the point of each pixel's square nearest the disc's centre (the centre itself if inside it)
+        qx = np.clip(fp.uv[sel, 0:1], c0, c0 + 1.0)
+        qy = np.clip(fp.uv[sel, 1:2], r0, r0 + 1.0)
+        dx = np.stack([qx - fp.uv[sel, 0:1], qy - fp.uv[sel, 1:2]], axis=-1)  # (n, k, 2) pixels
         dm = np.einsum("nij,nkj->nki", Jinv, dx)
         inside = (np.sum(dm * dm, axis=-1) <= fp.radius_m[sel, None] ** 2) & (c0 >= 0) & (c0 < width) \
             & (r0 >= 0) & (r0 < height)

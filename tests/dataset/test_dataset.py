@@ -126,6 +126,8 @@ def test_deterministic_across_workers(tmp_path):
     ('presets = ["coastal", "jerlov-II"]', 'presets = ["coastl"]', r"water.presets\[0\].*did you mean 'coastal'"),
     ('kinds = ["colorchecker", "white-disk", "mesh"]', 'kinds = ["cube"]', r"scene.kinds\[0\]: unknown object kind"),
     ("spp = 16", "spp = 16\nfoo = 1", r"dataset.foo: unknown key"),
+    ("[water]", '[water]\nparticle_levels = ["snowstorm"]\nparticle_probability = 0.5',
+     r"water.particle_levels\[0\]: unknown particle level"),
 ])
 def test_bad_spec_fails_before_rendering(tmp_path, monkeypatch, old, new, pattern):
     import rigsim.dataset.writer as writer
@@ -136,3 +138,37 @@ def test_bad_spec_fails_before_rendering(tmp_path, monkeypatch, old, new, patter
     with pytest.raises(ConfigError, match=pattern) as ei:
         run_dataset(load_dataset_spec(p), 2, tmp_path / "x", serial=True, progress=False)
     assert "\n" not in str(ei.value)
+
+
+def test_marine_snow_samples_carry_the_particles_ground_truth(tmp_path):
+    """With particle_probability = 1 every sample has marine snow: an instance mask whose labels are the
+    particles whose light the particles layer holds, the placement recorded (level, seed, count); the same
+    sample again gives the same particles."""
+    p = spec_file(tmp_path, noise="false")
+    p.write_text(p.read_text().replace("[water]", '[water]\nparticle_levels = ["coastal"]\nparticle_probability = 1.0')
+                 .replace('kinds = ["colorchecker", "white-disk", "mesh"]', 'kinds = ["colorchecker"]')
+                 .replace("width = 36\nheight = 24", "width = 72\nheight = 48"))
+    spec = load_dataset_spec(p)
+    out = run_dataset(spec, 2, tmp_path / "ds", seed=3, serial=True, progress=False)
+    seeds = []
+    for i in range(2):
+        d = out / "samples" / f"{i:06d}"
+        rec = json.loads((d / "record.json").read_text())
+        assert rec["particles"]["level"] == "coastal" and rec["particles"]["count"] > 1000
+        seeds.append(rec["particles"]["seed"])
+        ids = tifffile.imread(d / "particle_id.tiff")
+        specks = tifffile.imread(d / "specks.tiff")
+        light = tifffile.imread(d / "particles_linear.tiff")
+        assert ids.dtype == np.uint32 and ids.shape == (48, 72) and light.shape == (48, 72, 3)
+        assert ids.max() <= rec["particles"]["count"] and (ids > 0).mean() > 0.5  # at 72×48 particles are everywhere
+        # the specks that show are a few of them, bright: each labelled pixel holds at least 5 % of the image's
+        # median luminance of particle light, the pixels outside the mask less
+        lum = light @ np.array([0.2126, 0.7152, 0.0722])
+        ref = np.median(tifffile.imread(d / "image_linear.tiff") @ np.array([0.2126, 0.7152, 0.0722]))
+        assert 0 < (specks > 0).sum() < 0.2 * specks.size
+        assert np.all(lum[specks > 0] >= 0.05 * ref * 0.999) and np.all(lum[(specks == 0) & (ids > 0)] < 0.05 * ref)
+        assert np.all((specks == ids) | (specks == 0))
+    assert seeds[0] != seeds[1]  # every sample its own particles
+    again = run_dataset(spec, 1, tmp_path / "again", seed=3, serial=True, progress=False)
+    np.testing.assert_array_equal(tifffile.imread(again / "samples" / "000000" / "particle_id.tiff"),
+                                  tifffile.imread(out / "samples" / "000000" / "particle_id.tiff"))

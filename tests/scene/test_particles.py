@@ -151,7 +151,7 @@ def test_placement_stays_in_the_water_and_in_view():
     assert dense.truncated and abs(len(dense) - MAX_PARTICLES) < 5 * np.sqrt(MAX_PARTICLES)
 
 
-def test_particle_ids_are_the_nearest_particle_covering_the_pixel_centre():
+def test_particle_ids_are_the_nearest_particle_reaching_into_the_pixel():
     sc = _scene(level="coastal")
     ps = scene_particles(sc)
     W, H = 320, 213
@@ -159,12 +159,16 @@ def test_particle_ids_are_the_nearest_particle_covering_the_pixel_centre():
     fp = particle_footprints(sc, ps, W, H)
     hit = np.unique(ids[ids > 0]) - 1
     assert hit.size > 100
-    # every labelled particle's disc covers the centre of a pixel carrying its label
+    # every labelled particle's disc reaches into each pixel carrying its label
     for k in hit[:50]:
         rows, cols = np.nonzero(ids == k + 1)
-        dx = np.stack([cols + 0.5 - fp.uv[k, 0], rows + 0.5 - fp.uv[k, 1]], axis=-1)
-        dm = dx @ np.linalg.inv(fp.jacobian[k]).T
+        qx, qy = np.clip(fp.uv[k, 0], cols, cols + 1.0), np.clip(fp.uv[k, 1], rows, rows + 1.0)
+        dm = np.stack([qx - fp.uv[k, 0], qy - fp.uv[k, 1]], axis=-1) @ np.linalg.inv(fp.jacobian[k]).T
         assert np.all(np.sum(dm * dm, axis=-1) <= fp.radius_m[k] ** 2 * (1 + 1e-9))
+    # and the pixel its centre lies in carries it or a nearer particle's label
+    for k in hit[:50]:
+        c, r = int(fp.uv[k, 0]), int(fp.uv[k, 1])
+        assert ids[r, c] == k + 1 or fp.range_m[ids[r, c] - 1] <= fp.range_m[k]
     # a target in front hides every particle behind it
     ids_near = particle_id_image(sc, ps, W, H, np.full((H, W), 0.25))
     assert np.all(fp.range_m[ids_near[ids_near > 0] - 1] < 0.25) and (ids_near > 0).sum() < (ids > 0).sum()
