@@ -189,11 +189,11 @@ def compare_renders(fast, references: list, target_kind: str) -> tuple[list[Regi
             metrics.append(MetricDeviation(key, float(mf[key]), float(vals.mean()),
                                            float(vals.std(ddof=1) / math.sqrt(n))))
     if fast.meta.get("particles") and all("particle_id" in r.layers for r in references + [fast]):
-        from rigsim.metrics.specks import speck_metrics  # marine snow: the specks' share of the light
+        from rigsim.metrics.specks import speck_metrics, subject_mask  # marine snow: the specks' share of the light
 
-        sf = speck_metrics(fast, masks.get("target"))["speck_share"]
-        vals = np.array([speck_metrics(r, masks.get("target"))["speck_share"] for r in references])
-        if vals.mean() > 0:
+        sf = speck_metrics(fast, subject_mask(masks, target_kind))["speck_share"]
+        vals = np.array([speck_metrics(r, subject_mask(masks, target_kind))["speck_share"] for r in references])
+        if vals.mean() != 0:
             metrics.append(MetricDeviation("speck_share", float(sf), float(vals.mean()),
                                            float(vals.std(ddof=1) / math.sqrt(n))))
     return out, metrics

@@ -10,12 +10,14 @@ front of the subject.  From a SpectralImage with the ``particles`` and ``particl
   twentieth as bright as the subject is plainly seen against the dark water around it; a dimmer
   one is lost in the veil and the sensor's noise).  A pixel belongs to the particle of its
   ``particle_id`` (the nearest whose image reaches into the pixel).
-* ``speck_share`` — the particles' light as a share of all the light in the image (luminance;
-  their net contribution where positive).
+* ``speck_share`` — the particles' net light (what they add less what they hide: the ``particles``
+  layer) as a share of all the light in the image (luminance).  The net sum, not its positive part:
+  a Monte Carlo ``particles`` layer is a difference of two renders whose noise a clip would bias.
 * ``speck_share_subject`` — the same over the subject's pixels only: how much of what the subject
-  looks like is specks.
+  looks like is specks (negative where dark particles hide more of it than they add).
 
-The subject is the target (its pixels); without a target in view, the image's median luminance.
+The subject is the target (its pixels; :func:`subject_mask`); for a black disk — a test target that
+reflects nothing — and without a target in view, the image's median luminance stands for it.
 """
 
 from __future__ import annotations
@@ -24,11 +26,17 @@ import numpy as np
 
 from rigsim.metrics.scene import photopic_luminance
 
-__all__ = ["SPECK_THRESHOLD", "speck_metrics", "speck_numbers", "visible_specks"]
+__all__ = ["SPECK_THRESHOLD", "speck_metrics", "speck_numbers", "visible_specks", "subject_mask"]
 
 #: A particle counts as a visible speck where its light in a pixel is at least this × the subject's mean
 #: luminance.
 SPECK_THRESHOLD = 0.05
+
+
+def subject_mask(masks: dict, target_kind: str) -> np.ndarray | None:
+    """The subject's pixels for the speck numbers: the target's (``masks["target"]``,
+    :func:`rigsim.metrics.scene.target_masks`), or None for a black disk (its luminance is the veil's)."""
+    return None if target_kind == "black-disk" else masks.get("target")
 
 
 def visible_specks(particles: np.ndarray, particle_id: np.ndarray, reference: float, *,
@@ -73,10 +81,9 @@ def speck_numbers(luminance: np.ndarray, particles: np.ndarray, particle_id: np.
     subject = float(lum[mask].mean()) if mask is not None and mask.any() else float(np.median(lum))
     shows = visible_specks(lp, ids, subject, threshold=threshold) > 0
     total = float(lum.sum())
-    pos = np.clip(lp, 0.0, None)
     return {"speck_count": int(np.unique(ids[shows]).size),
-            "speck_share": float(pos.sum() / total) if total > 0 else 0.0,
-            "speck_share_subject": (float(pos[mask].sum() / lum[mask].sum())
+            "speck_share": float(lp.sum() / total) if total > 0 else 0.0,
+            "speck_share_subject": (float(lp[mask].sum() / lum[mask].sum())
                                     if mask is not None and mask.any() and lum[mask].sum() > 0 else 0.0),
             "speck_threshold": float(threshold)}
 

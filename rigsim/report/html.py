@@ -154,28 +154,33 @@ def sensor_sentences(rows: list[dict], sensors: list[str]) -> list[str]:
 
 
 def speck_sentences(rows: list[dict]) -> list[str]:
-    """Per water with discrete particles (marine snow): each rig's visible specks and their share of the
-    light (:mod:`rigsim.metrics.specks`), over the distances of the sweep, the rig with fewest first."""
-    by_water: dict[str, dict[str, list[dict]]] = defaultdict(lambda: defaultdict(list))
-    for r in rows:
+    """Per water with discrete particles (marine snow) and target: each rig's visible specks and their share
+    of the light (:mod:`rigsim.metrics.specks`) at each distance of the sweep, and at how many distances
+    each rig lights fewer specks than the others."""
+    scenes: dict[tuple, dict] = {}
+    for r in rows:  # one row per sensor: the scene's numbers
         if r.get("speck_count") is not None and not _is_extension(r):
-            by_water[r["water"]][r["rig"]].append(r)
+            scenes[(r["water"], r["target"], r["rig"], r["distance_m"])] = r
     out = []
-    for water, by_rig in by_water.items():
-        level = next(iter(by_rig.values()))[0].get("particles_level")
-        stats = []
-        for rig, rs in by_rig.items():
-            per_scene = {(r["target"], r["distance_m"]): r for r in rs}  # one row per sensor: the scene's numbers
-            counts = [r["speck_count"] for r in per_scene.values()]
-            shares = [r["speck_share"] for r in per_scene.values()]
-            stats.append((float(np.median(counts)), rig, float(np.median(shares)), min(counts), max(counts)))
-        stats.sort()
-        parts = [f"{rig} {med:.0f} specks (from {lo:.0f} to {hi:.0f}; {share:.1%} of the image's light)"
-                 for med, rig, share, lo, hi in stats]
-        txt = f"Marine snow in {water} (particle level {level}): median over the scenes, " + "; ".join(parts)
-        if len(stats) > 1 and stats[-1][0] > 0:
-            txt += (f" — {stats[0][1]} lights {1 - stats[0][0] / stats[-1][0]:.0%} fewer specks than "
-                    f"{stats[-1][1]}")
+    for water, target in dict.fromkeys((k[0], k[1]) for k in scenes):
+        rigs = list(dict.fromkeys(k[2] for k in scenes if k[:2] == (water, target)))
+        dists = sorted({k[3] for k in scenes if k[:2] == (water, target)})
+        level = next(r for k, r in scenes.items() if k[:2] == (water, target)).get("particles_level")
+        parts = []
+        for rig in rigs:
+            per = [scenes.get((water, target, rig, d)) for d in dists]
+            counts = " / ".join("–" if p is None else f"{p['speck_count']:.0f}" for p in per)
+            shares = " / ".join("–" if p is None else f"{100 * p['speck_share']:.1f}" for p in per)
+            parts.append(f"{rig} {counts} specks ({shares} % of the light)")
+        txt = (f"Marine snow in {water} (particle level {level}), {target} at "
+               f"{' / '.join(f'{d:g}' for d in dists)} m: " + "; ".join(parts))
+        if len(rigs) > 1:
+            wins = {rig: sum(1 for d in dists if all(
+                (scenes.get((water, target, rig, d)) or {}).get("speck_share", np.inf)
+                < (scenes.get((water, target, o, d)) or {}).get("speck_share", np.inf) for o in rigs if o != rig))
+                for rig in rigs}
+            best = max(wins, key=wins.get)
+            txt += f" — {best} puts the smallest share of the light into specks at {wins[best]} of {len(dists)} distances"
         out.append(txt + ".")
     return out
 

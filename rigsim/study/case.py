@@ -76,7 +76,7 @@ def compute_case(spec: StudySpec, case: Case) -> dict:
     from rigsim.sensor.photograph import photograph
     from rigsim.sensor.pipeline import Exposure
 
-    from rigsim.metrics.specks import speck_metrics
+    from rigsim.metrics.specks import speck_metrics, subject_mask
 
     scene, water, target_kind = case_scene(spec, case)
     seed = spec.case_seed(case)
@@ -107,7 +107,7 @@ def compute_case(spec: StudySpec, case: Case) -> dict:
     base.update(scene_metrics(si, target_kind, masks=masks)[0])  # sensor-independent numbers
     pm = si.meta.get("particles")
     if pm is not None:  # marine snow: the specks the subject is seen through (rigsim.metrics.specks)
-        base.update(speck_metrics(si, masks.get("target")))
+        base.update(speck_metrics(si, subject_mask(masks, target_kind)))
         base.update({"particles_level": pm["field"]["level"] or "custom", "particles_placed": pm["count"]})
     else:
         base.update({"speck_count": None, "speck_share": None, "speck_share_subject": None,

@@ -252,9 +252,9 @@ def measure(si, target_kind: str, *, cap=None, sensor=None, exposure=None, masks
     m, masks = scene_metrics(si, target_kind, cap=cap, sensor=sensor, exposure=exposure, masks=masks,
                              radiance_metrics=radiance_metrics)
     if radiance_metrics and si.meta.get("particles"):
-        from rigsim.metrics.specks import speck_metrics
+        from rigsim.metrics.specks import speck_metrics, subject_mask
 
-        m.update({k: v for k, v in speck_metrics(si, masks.get("target")).items() if k != "speck_threshold"})
+        m.update({k: v for k, v in speck_metrics(si, subject_mask(masks, target_kind)).items() if k != "speck_threshold"})
     return m, masks
 
 
