@@ -100,7 +100,7 @@ from rigsim.scene.types import Scene, unit
 from rigsim.spectral_image import RenderInfo, SpectralImage
 from rigsim.spectrum import DEFAULT_WAVELENGTHS_NM, band_average, band_edges
 from rigsim.scene.imaging import IMAGE_LAYERS, check_int, check_scene_for_bands, image_request
-from rigsim.scene.optics import angular_pitch_rad, camera_rays, fov_water_deg, outside_index, world_radius_m
+from rigsim.scene.optics import angular_pitch_rad, camera_rays, fov_water_deg, outside_index, port_reach_m, world_radius_m
 
 __all__ = ["render_preview", "PREVIEW_LAYERS", "band_edges"]
 
@@ -309,6 +309,8 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
     shape = (height, width, B)
     results: dict[tuple[str, str], np.ndarray] = {}
     ms_info: dict[str, dict] = {}
+    ms_by_group: dict[str, object] = {}
+    groups_done: dict[str, _Group] = {}
 
     with no_hugepage_advice(), thread_map(threads) as pmap:
         view = _view(scene, surf, width, height, pixel_samples, n_out, [l.position_m for l in lit], pmap)
@@ -337,6 +339,7 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
                                     seed=0 if seed is None else int(seed))
                 ms_info[gname] = {"photons": ms.photons, "seconds": round(ms.seconds, 3),
                                   "relative_noise": [float(x) for x in ms.relative_noise]}
+                ms_by_group[gname] = ms
             # the target lit by the scene's daylight field (as the renderer: sun beam and diffuse field; no
             # forward-scattered halo of it, the renderer's daylight transport has none) and its path radiance
             day = _Daylight(scene_daylight(scene, req.band_lo_nm, req.band_hi_nm), wl, surf, bw) if has_day else None
@@ -346,6 +349,7 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
                                          backscatter_grid, backscatter_nodes, shadows, pmap)
             group = _Group(view, surf, water, lamps, rho_c, forward, shadows, day, grid, ms,
                            want=set(layers))
+            groups_done[gname] = group
             group.shade(pmap)
             tick(0.3 + 0.3 * gi, f"{gname}: direct and backscatter")
             if forward:
@@ -385,14 +389,26 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
         day_b = (scene_daylight(scene, req.band_lo_nm, req.band_hi_nm).band_means(wl, bw)
                  if scene.daylight is not None else None)
         pl = particle_layers(scene, ps, width=width, height=height, wl=wl, bw=bw, kappa=kap,
-                             range_m=view.range_m, n_outside=n_out, daylight=day_b)
+                             range_m=view.range_m, n_outside=n_out, daylight=day_b, multiple=ms_by_group)
         cov = pl.coverage[..., None]
-        net = pl.radiance - cov * radiance  # what the particles change: their light less what they hide
+        pix_h = pl.hiders[0].astype(np.int64)
+        pl = dataclasses.replace(pl, hiders=(pix_h,) + tuple(pl.hiders[1:]))
+
+        def hidden(image, gname):
+            """What the particles take from the rest of the image: the light from behind each of them along
+            the lines of sight they cover (not the veil in front of them, :func:`_veil_behind`), and their
+            shadows in the lights' beams (:func:`_particle_shadows`)."""
+            g = groups_done.get(gname)
+            if g is None:
+                return (cov * image).astype(np.float32)
+            return (_veil_behind(g, image, pl.hiders) + _particle_shadows(g, image, ps, scene)).astype(np.float32)
+
+        net = pl.radiance - hidden(radiance, "continuous")  # what the particles change: their light less what they hide
         radiance = radiance + net
         if "particles" in layers:
             out_layers["particles"] = net
         if "flash" in out_layers:
-            net_f = pl.flash - cov * out_layers["flash"]
+            net_f = pl.flash - hidden(out_layers["flash"], "strobe")
             out_layers["flash"] = out_layers["flash"] + net_f
             if "particles" in layers:
                 out_layers["flash_particles"] = net_f
@@ -827,6 +843,23 @@ class _Group:
             direct += day_lit * T
         return clear, direct, scattered, src
 
+    def veil_in_front(self, pixel: np.ndarray, range_m: np.ndarray) -> np.ndarray:
+        """(n, B) the lights' veil (single and multiply scattered) along the lines of sight of pixels
+        ``pixel`` (flat indices) up to ``range_m`` (n,) from the pupil — what is in front of something at
+        that distance, which it cannot hide."""
+        v = self.view
+        range_m = np.asarray(range_m, float)
+        out = np.zeros(range_m.shape + (self.B,), np.float32)
+        C_, R_ = v.cols[pixel % v.width], v.rows[pixel // v.width]
+        reach = port_reach_m(self.view.camera)
+        if self.grid is not None:
+            cum, shape, gcol, grow, s = self.grid
+            t = np.where(np.isfinite(range_m), np.maximum(range_m - reach, 0.0), np.inf)
+            interpolate_cumulative(cum, shape, gcol, grow, s, C_, R_, t, out=out)
+        if self.ms is not None:
+            out += self.ms.veil_at(C_, R_, np.asarray(range_m, float)).astype(np.float32)
+        return out
+
     def _backscatter(self, y0: int, y1: int, back: np.ndarray) -> None:
         """``back`` (rows, W, B) = backscatter of the lights + multiply scattered veil (paths that met no
         target, as the renderer's ``backscatter`` layer) + daylight path radiance."""
@@ -908,6 +941,112 @@ def _backscatter_grid(scene, surf, tables, water, forward, cam, width, height, w
 
     run(pmap, chunk, chunks)
     return cum, (len(grow), len(gcol)), gcol, grow, s
+
+
+#: Distances from the pupil (log-spaced over the particles' range) at which the veil in front of them is tabulated.
+_HIDE_NODES = 12
+
+
+def _coarse_pixels(H: int, W: int):
+    """Rows, columns and flat indices of every :data:`_SHADOW_STEP`-th pixel (and the last row and column)."""
+    rs = np.unique(np.r_[np.arange(0, H, _SHADOW_STEP), H - 1])
+    cs = np.unique(np.r_[np.arange(0, W, _SHADOW_STEP), W - 1])
+    RR, CC = np.meshgrid(rs, cs, indexing="ij")
+    return rs, cs, (RR * W + CC).ravel()
+
+
+def _to_full(a: np.ndarray, rs, cs, H: int, W: int) -> np.ndarray:
+    """(len(rs)·len(cs), B) values on the coarse pixels → (H, W, B), bilinear."""
+    import cv2
+
+    B = a.shape[-1]
+    g = a.reshape(len(rs), len(cs), B).astype(np.float32)
+    if (len(rs), len(cs)) == (H, W):
+        return g
+    return cv2.resize(g, (W, H), interpolation=cv2.INTER_LINEAR).reshape(H, W, B)
+
+
+def _veil_behind(group: "_Group", image: np.ndarray, hiders) -> np.ndarray:
+    """(rows, W, B): what the particles hide on the way to the camera, ``Σ share · (light − veil in front of
+    the particle)`` over every point of their images (``hiders``, :class:`~rigsim.preview.particles.
+    ParticleLayers`).  The veil in front is smooth across the image and in distance: tabulated on coarse
+    pixels at :data:`_HIDE_NODES` distances; the shares are split linearly (in log distance) between the
+    two nodes about each particle."""
+    pix, rng_h, share = hiders
+    H, W, B = image.shape
+    out = np.zeros(image.shape, np.float32)
+    if not len(pix):
+        return out
+    nodes = np.geomspace(max(float(rng_h.min()), 1e-3), max(float(rng_h.max()), 1e-3) * 1.0001, _HIDE_NODES)
+    x = np.interp(np.log(rng_h), np.log(nodes), np.arange(_HIDE_NODES))
+    k0 = np.minimum(np.floor(x).astype(np.int64), _HIDE_NODES - 2)
+    f = x - k0
+    rs, cs, gpix = _coarse_pixels(H, W)
+    rng_pix = group.view.range_m.reshape(-1)[gpix].astype(float)
+    for k in range(_HIDE_NODES):
+        wk = np.where(k0 == k, share * (1.0 - f), 0.0) + np.where(k0 + 1 == k, share * f, 0.0)
+        if not np.any(wk):
+            continue
+        weight = np.bincount(pix, weights=wk, minlength=H * W).reshape(H, W, 1)
+        front = _to_full(group.veil_in_front(gpix, np.minimum(nodes[k], rng_pix)), rs, cs, H, W)
+        out += weight * np.maximum(image - front, 0.0)
+    return out
+
+
+#: Depth nodes over the particles' placement region at which their shadows on the veil are summed.
+_SHADOW_NODES = 6
+#: Pixels between the points at which the particles' shadow on the veil is computed (then interpolated).
+_SHADOW_STEP = 8
+
+
+def _particle_shadows(group: "_Group", image: np.ndarray, ps, scene: Scene) -> np.ndarray:
+    """(rows, W, B): the light a group's lights lose to the particles' shadows before it reaches the water
+    and the targets in view.  The particles' geometric extinction ``c_p`` (their field's, in the placement
+    region only: the renderer has none beyond it) acts on each light's way to the lit point along the
+    length of that way inside the region (:func:`rigsim.scene.particles.length_inside`), averaged over
+    the group's lights: a veil element at depth z of a pixel's line of sight (nodes over the region;
+    the veil's loss is smooth across the image and is computed every :data:`_SHADOW_STEP` pixels and
+    interpolated) and what lies beyond the region (the target the line meets, per pixel).  Their shadow
+    on the way to the camera is the ``coverage`` of :mod:`rigsim.preview.particles`."""
+    from rigsim.scene.particles import length_inside, placement_frustum
+
+    c_p = ps.expected / max(ps.volume_m3, 1e-300) * ps.field.mean_cross_section_m2
+    z_max = float(ps.depth_range_m[1])
+    lamps = group.lamps64
+    if c_p * z_max < 1e-6 or not lamps:
+        return np.zeros(image.shape)
+    fr = placement_frustum(scene, ps.field, z_max)
+    v = group.view
+    H, W, B = image.shape
+    pupil = np.asarray(scene.camera.position_m, float)
+    fwd = scene.camera.frame()[2]
+
+    def keep(points):  # (n, 3) → (n,) mean over the lights of e^{−c_p ℓ}
+        return np.mean([np.exp(-c_p * length_inside(fr, scene.camera, np.broadcast_to(l.position, points.shape),
+                                                       points)) for l in lamps], axis=0)
+
+    # the veil's loss and the veil up to the region's end, on a coarse grid of pixels
+    rs, cs, pix = _coarse_pixels(H, W)
+    rng = v.range_m.reshape(-1)[pix].astype(float)
+    d = v.d_c.reshape(-1, 3)[pix]
+    cos_f = np.maximum(d @ fwd, 1e-3)
+    z = np.linspace(0.0, z_max, _SHADOW_NODES + 1)
+    lost = np.zeros((len(pix), B))
+    prev = np.zeros((len(pix), B), np.float32)
+    for k in range(1, len(z)):
+        cum = group.veil_in_front(pix, np.minimum(z[k] / cos_f, rng))
+        r_mid = np.minimum(0.5 * (z[k - 1] + z[k]) / cos_f, rng)
+        lost += (cum - prev) * (1.0 - keep(pupil + d * r_mid[:, None]))[:, None]
+        prev = cum
+
+    lost, near_veil = _to_full(lost, rs, cs, H, W), _to_full(prev, rs, cs, H, W)
+    # beyond the region (the farther veil and the targets' light), per pixel
+    rng_all = v.range_m.astype(float)
+    d_all = v.d_c.reshape(-1, 3)
+    cos_all = np.maximum(d_all @ fwd, 1e-3)
+    far = np.where(np.isfinite(rng_all.reshape(-1)), rng_all.reshape(-1), 2.0 * z_max / cos_all)
+    keep_far = keep(pupil + d_all * far[:, None]).reshape(H, W, 1)
+    return lost + np.maximum(image - near_veil, 0.0) * (1.0 - keep_far)
 
 
 # --- daylight ------------------------------------------------------------------------------

@@ -98,6 +98,7 @@ from rigsim.preview.geometry import SceneSurfaces, cast_rays, occluded
 from rigsim.scene.optics import camera_rays, cell_solid_angles, outside_index, port_reach_m, project_points
 from rigsim.scene.phase_tables import PhaseTables
 from rigsim.scene.types import Scene
+from rigsim.water.particles import lambert_sphere_phase
 
 __all__ = ["MultipleScattering", "trace_multiple", "default_photons", "DEFAULT_PHOTONS", "DEFAULT_GRID"]
 
@@ -164,6 +165,12 @@ class MultipleScattering:
         Pixel coordinates (full resolution) of the low-resolution cell centres.
     irradiance
         (S, TEXTURE, TEXTURE, B) class-B irradiance on each surface's texture cells, W/(m² nm).
+    fluence
+        (rows, cols, n_range, B) class-B light in the water of each low-resolution cell and range bin as a
+        diffuse sphere there sends it to the camera, ``∫ L(ω) p_L(ω · towards the camera) dω`` (W/(m² sr
+        nm); ``p_L`` :func:`rigsim.water.particles.lambert_sphere_phase`): a particle's intensity is this ×
+        its cross-section × reflectance (:mod:`rigsim.preview.particles`); by the track-length estimator
+        of the flights, smoothed as the veil.
     relative_noise
         Standard error of the veil over the image / its mean, and of the surfaces' irradiance /
         its mean (from independent batches of photons).
@@ -177,6 +184,7 @@ class MultipleScattering:
     cell_col: np.ndarray
     cell_row: np.ndarray
     irradiance: np.ndarray
+    fluence: np.ndarray
     relative_noise: tuple[float, float]
     photons: int
     vertices: int
@@ -210,6 +218,15 @@ class MultipleScattering:
                 b = np.take(flat, base + 1, axis=0)
                 out = out + (wr * wc)[..., None] * (a + (b - a) * fs[..., None])
         return out
+
+    def fluence_at(self, col: np.ndarray, row: np.ndarray, range_m: np.ndarray) -> np.ndarray:
+        """:attr:`fluence` (…, B) at full-resolution image positions ``(col, row)`` and distance ``range_m``
+        from the pupil (the cell and range bin they fall in)."""
+        R, C, M, _ = self.fluence.shape
+        ic = np.clip(np.floor(np.asarray(col, float) / (self.cell_col[0] * 2)).astype(np.int64), 0, C - 1)
+        ir = np.clip(np.floor(np.asarray(row, float) / (self.cell_row[0] * 2)).astype(np.int64), 0, R - 1)
+        kb = np.clip(np.searchsorted(self.range_edges_m, np.asarray(range_m, float), side="right") - 1, 0, M - 1)
+        return self.fluence[ir, ic, kb]
 
     def irradiance_at(self, surf: SceneSurfaces, oid: np.ndarray, points: np.ndarray) -> np.ndarray:
         """Class-B irradiance (N, B) at surface points ``points`` (N, 3) of objects ``oid`` (1-based)."""
@@ -369,11 +386,15 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
     veil = np.zeros((batches, L, rows, cols, N_RANGE_BINS, B))
     veil_s = np.zeros_like(veil)
     irr = np.zeros((batches, L, max(S, 1), TEXTURE, TEXTURE, B))
+    flu = np.zeros_like(veil)
     n_vert = 0
-    acc = _Accumulator(veil, veil_s)
+    acc = _Accumulator(veil, veil_s, flu if classes == "B" else None)
+    # volume of each cell × range bin of the frustum (m³), for the fluence
+    vol = omega[:, :, None] * (edges[1:] ** 3 - edges[:-1] ** 3)[None, None, :] / 3.0
     track = int(track_points) if classes == "B" else 0
     if len(lights) == 0 or not np.any(power > 0) or photons <= 0:
-        return _result(veil, veil_s, irr, np.zeros((L, B_out)), to_bands, edges, cols, rows, width, height, 0, 0, t0)
+        return _result(veil, veil_s, irr, flu, np.zeros((L, B_out)), to_bands, edges, cols, rows, width, height, 0, 0,
+                       t0)
     q = power.mean(axis=1)
     q = q / q.sum()
     per_batch = max(1, photons // batches)
@@ -521,8 +542,9 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
         hero, n_sig, touched, bid, li, f_ref = hero[keep], n_sig[keep], touched[keep], bid[keep], li[keep], f_ref[keep]
     acc.flush()
     if classes == "B":
-        veil, veil_s = (_smooth_in_water(a, edges, omega) for a in (veil, veil_s))
-    return _result(veil, veil_s, irr, power, to_bands, edges, cols, rows, width, height, photons, n_vert, t0)
+        flu /= vol[None, None, :, :, :, None]
+        veil, veil_s, flu = (_smooth_in_water(a, edges, omega) for a in (veil, veil_s, flu))
+    return _result(veil, veil_s, irr, flu, power, to_bands, edges, cols, rows, width, height, photons, n_vert, t0)
 
 
 class _Accumulator:
@@ -530,9 +552,9 @@ class _Accumulator:
     :func:`numpy.bincount` once at the end (``np.add.at`` over five indices at every bounce is
     several times slower)."""
 
-    def __init__(self, veil: np.ndarray, veil_s: np.ndarray):
-        self.arrays = (veil, veil_s)
-        self.parts: tuple[list, list] = ([], [])
+    def __init__(self, veil: np.ndarray, veil_s: np.ndarray, fluence: np.ndarray | None = None):
+        self.arrays = (veil, veil_s) + (() if fluence is None else (fluence,))
+        self.parts: tuple[list, ...] = tuple([] for _ in self.arrays)
 
     def add(self, which: int, index: tuple[np.ndarray, ...], val: np.ndarray) -> None:
         self.parts[which].append((np.ravel_multi_index(index, self.arrays[which].shape[:-1]), val))
@@ -578,14 +600,18 @@ def _equiangular(p0, dd, t0, t1, pupil, r_out, K, rng):
 
 
 def _splat_points(acc, which, x, d_seg, wgt, kappa_cam, pupil, reach, r_max, cutoff_cos, dens_b, tables, omega, cam,
-                  width, height, cols, rows, n_out, who_b, who_l, edges) -> int:
+                  width, height, cols, rows, n_out, who_b, who_l, edges, b=None) -> int:
     """Splat the light scattered towards the camera at points ``x`` (n, 3) of flights in directions
     ``d_seg``: ``wgt`` (n, B) times the phase function towards the camera, the camera leg and 1/ω of
-    the cell (``wgt`` holds every other factor, the 1/s² of the splat cancelled by the sampling)."""
+    the cell (``wgt`` holds every other factor, the 1/s² of the splat cancelled by the sampling).
+    With ``b`` (B,) the points' ``wgt / b`` — the flights' own weight per unit length (their track
+    length) — times the diffuse sphere's phase function towards the camera also go to the particles'
+    light (every direction; divided by the cells' volumes at the end: :attr:`MultipleScattering.fluence`)."""
     v = pupil - x
     s = np.linalg.norm(v, axis=1)
     cos_psi = np.sum(d_seg * v, axis=1) / np.maximum(s, 1e-12)
-    ok = np.flatnonzero((s > reach) & (s < r_max) & (cos_psi < cutoff_cos))
+    track = b is not None and len(acc.arrays) > 2
+    ok = np.flatnonzero((s > reach) & (s < r_max) & ((cos_psi < cutoff_cos) | track))
     if not ok.size:
         return 0
     px = project_points(cam, x[ok], width, height, n_outside=n_out)
@@ -596,9 +622,17 @@ def _splat_points(acc, which, x, d_seg, wgt, kappa_cam, pupil, reach, r_max, cut
     if not ok.size:
         return 0
     ic, ir = ic[inside].astype(np.int64), ir[inside].astype(np.int64)
+    kb = np.clip(np.searchsorted(edges, s[ok], side="right") - 1, 0, N_RANGE_BINS - 1)
+    if track:  # what a diffuse sphere there sends to the camera per unit cross-section and reflectance
+        # (the points were drawn ∝ 1/s² about the pupil, which the veil's own 1/s² cancels: here s² is put back)
+        acc.add(2, (who_b[ok], who_l[ok], ir, ic, kb),
+                wgt[ok] / np.maximum(b, 1e-300)[None, :] * (lambert_sphere_phase(cos_psi[ok]) * s[ok] ** 2)[:, None])
+        wide = cos_psi[ok] < cutoff_cos
+        ok, ic, ir, kb = ok[wide], ic[wide], ir[wide], kb[wide]
+        if not ok.size:
+            return 0
     ph = np.take(dens_b, tables.grid.cell_index(cos_psi[ok]), axis=0)  # (m, B)
     val = wgt[ok] * ph * np.exp(-np.outer(s[ok] - reach, kappa_cam)) / omega[ir, ic][:, None]
-    kb = np.clip(np.searchsorted(edges, s[ok], side="right") - 1, 0, N_RANGE_BINS - 1)
     wh = which[ok]
     for k_, m_ in ((0, ~wh), (1, wh)):
         if np.any(m_):
@@ -625,7 +659,8 @@ def _splat_track(acc, who, ell, p, d, F, P, c, b, kappa_cam, K, rng, bid, li, to
     surv = np.mean(P[g] * T, axis=1, keepdims=True)  # the MIS survival probability to t over the heroes
     wgt = F[g] * b[None, :] * T / surv * geo[:, None]
     return _splat_points(acc, touched[g], p[g] + tk[:, None] * d[g], d[g], wgt, kappa_cam, pupil, reach, edges[-1],
-                         cutoff_cos, dens_b, tables, omega, cam, width, height, cols, rows, n_out, bid[g], li[g], edges)
+                         cutoff_cos, dens_b, tables, omega, cam, width, height, cols, rows, n_out, bid[g], li[g], edges,
+                         b=b)
 
 
 def _splat_near(acc, x, wgt_out, d_in, normal, n_sig, touched, c, b, kappa_cam, K, rng, who_b, who_l, surf, pupil, reach,
@@ -673,7 +708,7 @@ def _splat_near(acc, x, wgt_out, d_in, normal, n_sig, touched, c, b, kappa_cam, 
     wgt = (wgt_out[use][seg] * f[seg] / pdf[seg, None]) * b[None, :] * T * geo[:, None]
     return _splat_points(acc, touched[use][seg], x[seg] + tk[:, None] * om[seg], om[seg], wgt, kappa_cam, pupil, reach,
                          near_m, cutoff_cos, dens_b, tables, omega, cam, width, height, cols, rows, n_out,
-                         who_b[use][seg], who_l[use][seg], edges)
+                         who_b[use][seg], who_l[use][seg], edges, b=b)
 
 
 def _smooth_in_water(veil: np.ndarray, edges: np.ndarray, omega: np.ndarray) -> np.ndarray:
@@ -750,7 +785,7 @@ def _cosine_about(n: np.ndarray, loc: np.ndarray) -> np.ndarray:
     return loc[:, 0:1] * t + loc[:, 1:2] * s + loc[:, 2:3] * n
 
 
-def _result(veil, veil_s, irr, power, to_bands, edges, cols, rows, width, height, photons, n_vert,
+def _result(veil, veil_s, irr, flu, power, to_bands, edges, cols, rows, width, height, photons, n_vert,
             t0) -> MultipleScattering:
     """Batches (nb, L, …, nodes) per light and unit power → the image's bands, times each light's
     spectrum (``power`` (L, bands)), summed over the lights; the batches' mean and noise."""
@@ -758,7 +793,7 @@ def _result(veil, veil_s, irr, power, to_bands, edges, cols, rows, width, height
     def to_image(a):  # (nb, L, ..., n) → (nb, ..., bands)
         return np.einsum("bl...n,kn,lk->b...k", a, to_bands, power, optimize=True)
 
-    veil, veil_s, irr = to_image(veil), to_image(veil_s), to_image(irr)
+    veil, veil_s, irr, flu = to_image(veil), to_image(veil_s), to_image(irr), to_image(flu)
     nb = veil.shape[0]
     mean_v = veil.mean(axis=0)  # each batch is an estimate (its photons carry 1/per_batch)
     mean_s = veil_s.mean(axis=0)
@@ -777,5 +812,5 @@ def _result(veil, veil_s, irr, power, to_bands, edges, cols, rows, width, height
     cell_col = (np.arange(cols) + 0.5) * width / cols
     cell_row = (np.arange(rows) + 0.5) * height / rows
     return MultipleScattering(cumulative(mean_v), cumulative(mean_s), edges, cell_col, cell_row, mean_i,
-                              (rel_noise(veil + veil_s), rel_noise(irr)), int(photons), int(n_vert),
+                              flu.mean(axis=0), (rel_noise(veil + veil_s), rel_noise(irr)), int(photons), int(n_vert),
                               time.perf_counter() - t0)

@@ -8,12 +8,14 @@ renderer draws as spheres).  For each particle of diameter ``d`` at distance ``r
   attenuation with the small-angle forward-scattered light kept in the beam, as the analytic image
   model's target lighting before its blur; :mod:`rigsim.preview.model`); daylight gives the sun beam
   (× the caustic pattern) and the diffuse field, each × its height factor (the scene's daylight
-  field, :mod:`rigsim.scene.daylight_field`).  No shadows from targets; the multiply scattered light
-  is not on particles.
+  field, :mod:`rigsim.scene.daylight_field`).  No shadows from targets.
 * **Scattering towards the camera** — a diffuse sphere: ``I = E · π d²/4 · ρ · p(θ)`` with the
   Lambert-sphere phase function at the angle between the light's path and the line of sight
   (:func:`rigsim.water.particles.lambert_sphere_intensity`); for the diffuse daylight, the phase
-  function integrated over the field's bins for the line of sight of each part of the image.
+  function integrated over the field's bins for the line of sight of each part of the image; for
+  the lights' multiply scattered light (where the image has it, :mod:`rigsim.preview.multiple`), the
+  tracer's ``∫ L(ω) p(ω) dω`` in the particle's cell of the water, its flights weighted by that phase
+  function towards the camera (:attr:`~rigsim.preview.multiple.MultipleScattering.fluence`).
 * **To the camera** — ``I e^{−κ s} / r²`` at the entrance pupil (``s`` the water path from the port;
   the small-angle-scattered halo of the speck kept in the speck), spread uniformly over the
   particle's image: a disc whose angular radius combines the particle's own (``d / 2r``) and the
@@ -24,8 +26,10 @@ renderer draws as spheres).  For each particle of diameter ``d`` at distance ``r
   angle (:func:`rigsim.scene.optics.cell_solid_angles`).
 * **Occlusion** — a particle is hidden where a target is nearer than it (the pixel's range); it
   hides what lies behind it in proportion to the solid angle it covers, spread like its light
-  (``coverage``: the image without particles is multiplied by ``1 − coverage``; the veil between the
-  camera and the particle is covered too, a small excess for the near particles that matter).
+  (``coverage``, and per point of its image the fraction it hides: the fast engine takes that of the
+  pixel's light less the lights' veil in front of the particle,
+  :meth:`rigsim.preview.model._Group.veil_in_front`; the daylight path radiance in front of it is
+  hidden too, a small excess).
 
 The result: the particles' radiance (continuous lights and daylight) and flash layers, the
 coverage, and ``particle_id`` — the instance mask of the ground truth
@@ -60,6 +64,10 @@ class ParticleLayers:
         (rows, cols, bands) float32: continuous lights + daylight, W/(m² sr nm); strobes, J/(m² sr nm).
     coverage
         (rows, cols) float32: fraction of each pixel's view the particles hide (0 … 1).
+    hiders
+        ``(pixel, range_m, share)``: for every point of the particles' images, its flat pixel index, its
+        particle's distance from the pupil and the fraction of that pixel's view it hides (they sum to
+        ``coverage``): what is in front of each particle stays in view.
     particle_id
         (rows, cols) int32: :func:`rigsim.scene.particles.particle_id_image` (the nearest particle whose
         image reaches into the pixel; 0: none).
@@ -70,6 +78,7 @@ class ParticleLayers:
     radiance: np.ndarray
     flash: np.ndarray
     coverage: np.ndarray
+    hiders: tuple
     particle_id: np.ndarray
     visible: int
 
@@ -94,18 +103,24 @@ def _diffuse_phase_table(day, diffuse: np.ndarray, cam, n_out: float) -> np.ndar
 
 
 def particle_layers(scene: Scene, ps: ParticleSet, *, width: int, height: int, wl: np.ndarray, bw: np.ndarray,
-                    kappa: np.ndarray, range_m: np.ndarray, n_outside: float, daylight=None) -> ParticleLayers:
+                    kappa: np.ndarray, range_m: np.ndarray, n_outside: float, daylight=None,
+                    multiple: dict | None = None, kappa_camera: np.ndarray | None = None) -> ParticleLayers:
     """The particles' layers of a ``width × height`` image at bands ``wl`` (nm, widths ``bw``).
 
     Parameters
     ----------
     kappa
         (B,) attenuation with the forward-scattered light kept (1/m) at the band centres (``c`` without
-        forward scattering).
+        forward scattering): the lights' way to the particles.
+    kappa_camera
+        (B,) the same for the way to the camera (None: ``kappa``).
     range_m
         (rows, cols) range of the targets (inf: open water) from the pupil.
     daylight
         The scene's :class:`~rigsim.scene.daylight_field.SceneDaylight` as band means at ``wl``, or None.
+    multiple
+        ``{"continuous" | "strobe": MultipleScattering}`` of the light groups whose multiply scattered
+        light the image has (:mod:`rigsim.preview.multiple`): its fluence lights the particles too.
     """
     B = len(wl)
     shape = (height, width, B)
@@ -133,6 +148,10 @@ def particle_layers(scene: Scene, ps: ParticleSet, *, width: int, height: int, w
         E = (f / np.maximum(r_l, 1e-9) ** 2)[:, None] * I_b[None, :] * np.exp(-np.outer(r_l, kappa))
         p = lambert_sphere_phase(np.sum(vh * to_cam[idx], axis=1))
         inten[light.kind] += E * (area * p)[:, None] * rho[None, :]
+    for group, ms in (multiple or {}).items():  # the multiply scattered light
+        if idx.size and getattr(ms, "fluence", None) is not None:
+            phi = ms.fluence_at(fp.uv[idx, 0], fp.uv[idx, 1], rng[idx])  # (n, B): ∫ L p_L dω
+            inten[group] += phi * area[:, None] * rho[None, :]
     if daylight is not None and idx.size:
         from rigsim.scene.daylight_field import height_factor
 
@@ -153,7 +172,7 @@ def particle_layers(scene: Scene, ps: ParticleSet, *, width: int, height: int, w
     at_pupil = {}
     pos = np.full(len(P), -1)
     pos[idx] = np.arange(len(idx))
-    T = np.exp(-np.outer(s_water[idx], kappa)) / (rng[idx] ** 2)[:, None]
+    T = np.exp(-np.outer(s_water[idx], kappa if kappa_camera is None else kappa_camera)) / (rng[idx] ** 2)[:, None]
     for k, v in inten.items():
         at_pupil[k] = v * T
     solid = cell_solid_angles(cam, width, height, n_outside=n_outside).ravel()  # sr per pixel
@@ -161,6 +180,7 @@ def particle_layers(scene: Scene, ps: ParticleSet, *, width: int, height: int, w
     geo[idx] = area / rng[idx] ** 2  # solid angle each particle hides (sr)
     out = {k: np.zeros(height * width * B) for k in inten}
     cover = np.zeros(height * width)
+    hid_pix, hid_r, hid_w = [], [], []
     seen = np.zeros(len(P), bool)
     for who, pix, share in footprint_samples(fp, width, height, range_m):
         seen[who] = True
@@ -169,7 +189,11 @@ def particle_layers(scene: Scene, ps: ParticleSet, *, width: int, height: int, w
         for key, val in at_pupil.items():
             out[key] += np.bincount(bins, weights=(val[pos[who]] * w[:, None]).ravel(), minlength=height * width * B)
         cover += np.bincount(pix, weights=geo[who] * w, minlength=height * width)
+        hid_pix.append(pix)
+        hid_r.append(rng[who])
+        hid_w.append(geo[who] * w)
     return ParticleLayers(radiance=out["continuous"].reshape(shape).astype(np.float32),
                           flash=out["strobe"].reshape(shape).astype(np.float32),
                           coverage=np.clip(cover, 0.0, 1.0).reshape(height, width).astype(np.float32),
+                          hiders=tuple(np.concatenate(x) if x else np.zeros(0) for x in (hid_pix, hid_r, hid_w)),
                           particle_id=particle_id_image(scene, ps, width, height, range_m), visible=int(seen.sum()))

@@ -35,7 +35,7 @@ from rigsim.water.particles import ParticleField
 
 __all__ = ["ParticleSet", "scene_particles", "placement_depth_m", "placement_frustum", "MAX_PARTICLES",
            "MAX_DEPTH_M", "REFERENCE_DEPTH_M", "particle_field_of", "Footprints", "particle_footprints",
-           "footprint_samples", "particle_id_image", "SPLAT_POINTS_MAX"]
+           "footprint_samples", "particle_id_image", "SPLAT_POINTS_MAX", "length_inside", "Frustum"]
 
 #: At most this many particles on average in a scene's placement volume.
 MAX_PARTICLES = 300_000
@@ -124,6 +124,28 @@ class Frustum:
             return 4.0 * (a * c * z + (a * d + b * c) * z * z / 2.0 + b * d * z ** 3 / 3.0)
 
         return float(prim(z1) - prim(self.z0))
+
+
+def length_inside(fr: Frustum, camera, a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Length (m) of the segments ``a → b`` ((…, 3) world points) inside the frustum ``fr`` of ``camera``
+    (its six planes are linear in the segment's parameter: clip it to each)."""
+    right, up, fwd = camera.frame()
+    pupil = np.asarray(camera.position_m, float)
+    A, Bp = np.asarray(a, float) - pupil, np.asarray(b, float) - pupil
+    ax, ay, az = A @ right, A @ up, A @ fwd
+    dx, dy, dz = Bp @ right - ax, Bp @ up - ay, Bp @ fwd - az
+    lo = np.zeros(np.broadcast(ax, dx).shape)
+    hi = np.ones_like(lo)
+    # each constraint p + q t <= 0
+    for p_, q_ in ((fr.z0 - az, -dz), (az - fr.z1, dz),
+                   (ax - fr.x0 - fr.tx * az, dx - fr.tx * dz), (-ax - fr.x0 - fr.tx * az, -dx - fr.tx * dz),
+                   (ay - fr.y0 - fr.ty * az, dy - fr.ty * dz), (-ay - fr.y0 - fr.ty * az, -dy - fr.ty * dz)):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = -p_ / q_
+        lo = np.where(q_ < 0, np.maximum(lo, t), lo)
+        hi = np.where(q_ > 0, np.minimum(hi, t), hi)
+        lo = np.where((q_ == 0) & (p_ > 0), 1.0, lo)  # parallel and outside
+    return np.maximum(hi - lo, 0.0) * np.linalg.norm(Bp - A, axis=-1)
 
 
 def placement_frustum(scene: Scene, field: ParticleField, z1: float) -> Frustum:

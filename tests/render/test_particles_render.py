@@ -115,14 +115,14 @@ def test_defocus_disc_has_the_thin_lens_size(monkeypatch):
 
 def test_fast_specks_sit_and_shine_where_monte_carlo_puts_them():
     """A field of coastal marine snow in pure sea water before the close-to-port rig: the same particle ids
-    in both engines, the image's particle light within 8 % (per colour), and each of the ten brightest
-    specks (5×5 pixels about its peak) within 12 % + 3 standard errors of Monte Carlo."""
+    in both engines, the image's particle light within 8 % + 3 SE per colour, and each of the ten brightest
+    specks (5×5 pixels about its peak) within 12 % + 3 SE of Monte Carlo."""
     from scipy.ndimage import maximum_filter
 
     rig = load_rig("rigs/twin-strobes-close-to-port.toml")
-    water = with_particles(preset("pure-sea"), particle_level("coastal"))
-    scene = build_scene(rig, water, "black-disk", 3.0, size_m=0.3)
-    w, h = 128, 85
+    scene = build_scene(rig, with_particles(preset("pure-sea"), particle_level("coastal")), "black-disk", 3.0,
+                        size_m=0.3)
+    w, h = 96, 64
     kw = dict(width=w, height=h, wavelengths_nm=[450.0, 550.0, 650.0], bandwidth_nm=20.0,
               layers=("range_m", "object_id", "particles", "particle_id"))
     fast = render_preview(scene, **kw)
@@ -142,6 +142,33 @@ def test_fast_specks_sit_and_shine_where_monte_carlo_puts_them():
         a = pf[sl].sum()
         b = pm[(slice(None),) + sl].sum(axis=(1, 2, 3))
         assert abs(a - b.mean()) < 0.12 * b.mean() + 3 * b.std(ddof=1) / 2, ((c, r), a, b.mean())
+
+
+def test_in_scattering_water_their_light_and_their_shadows_agree_with_monte_carlo():
+    """Coastal marine snow in coastal water (b = 0.16 /m), close-to-port rig, rendered with the particles as
+    they are and as black (the same places): the particles' own light (as they are − black: direct, the
+    forward-scattered beam and the multiply scattered light on them) within 6 % + 3 SE per colour band, and
+    what they take from the rest of the image (without them − black: their shadows on the view and in the
+    strobes' beams) within 10 % + 3 SE of Monte Carlo."""
+    rig = load_rig("rigs/twin-strobes-close-to-port.toml")
+    level = particle_level("coastal")
+    scenes = [build_scene(rig, with_particles(preset("coastal"), f), "black-disk", 3.0, size_m=0.9)
+              for f in (level, dataclasses.replace(level, albedo=0.0))]
+    w, h = 64, 43
+    kw = dict(width=w, height=h, wavelengths_nm=[450.0, 550.0, 650.0], bandwidth_nm=20.0, layers=("particles",))
+    fast = [render_preview(sc, **kw) for sc in scenes]
+    mc = [[render(sc, spp=32, seed=s, **kw) for s in range(4)] for sc in scenes]
+    om = cell_solid_angles(scenes[0].camera, w, h, n_outside=outside_index(scenes[0]))[..., None]
+
+    def parts(full, black):  # (light, hidden) per band
+        return (((full.layers["flash"] - black.layers["flash"]) * om).sum((0, 1)),
+                (-black.layers["flash_particles"] * om).sum((0, 1)))
+
+    lf, hf = parts(*fast)
+    per = np.array([parts(a, b) for a, b in zip(*mc)])  # (seeds, 2, bands)
+    m, se = per.mean(0), per.std(0, ddof=1) / 2
+    assert np.all(np.abs(lf - m[0]) < 0.06 * m[0] + 3 * se[0]), (lf / m[0] - 1, se[0] / m[0])
+    assert np.all(np.abs(hf - m[1]) < 0.10 * m[1] + 3 * se[1]), (hf / m[1] - 1, se[1] / m[1])
 
 
 def test_moving_the_strobes_outward_lowers_the_speck_count():
