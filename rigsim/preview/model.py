@@ -401,7 +401,8 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
             g = groups_done.get(gname)
             if g is None:
                 return (cov * image).astype(np.float32)
-            return (_veil_behind(g, image, pl.hiders) + _particle_shadows(g, image, ps, scene)).astype(np.float32)
+            h = _veil_behind(g, image, pl.hiders) + _particle_shadows(g, image, ps, scene)
+            return np.minimum(h, image).astype(np.float32)  # no more than all of it (near particles' discs overlap)
 
         net = pl.radiance - hidden(radiance, "continuous")  # what the particles change: their light less what they hide
         radiance = radiance + net

@@ -193,3 +193,17 @@ def test_moving_the_strobes_outward_lowers_the_speck_count():
     # the same particles in every scene (the placement does not depend on where the strobes are)
     assert len({len(scene_particles(build_scene(dataclasses.replace(rig, lights=(l,)), water, "colorchecker", 1.5)))
                 for l in rig.lights}) == 1
+
+
+@pytest.mark.parametrize("level", ["coastal", "plankton-bloom"])
+def test_dense_near_particles_never_make_light_negative(level):
+    """A chart 1 m away behind marine snow (the near particles' defocus discs overlap): every radiance is
+    finite and >= 0 (the particles hide at most all of a pixel's light); only their own layer, a change,
+    may be negative."""
+    rig = load_rig("rigs/twin-strobes-close-to-port.toml")
+    scene = build_scene(rig, with_particles(preset("coastal"), particle_level(level)), "colorchecker", 1.0)
+    img = render_preview(scene, width=320, height=213, layers=("object_id", "backscatter", "particles", "particle_id"))
+    for k in ("flash", "flash_backscatter"):
+        a = img.layers[k]
+        assert np.all(np.isfinite(a)) and a.min() >= 0.0, (k, a.min())
+    assert np.all(np.isfinite(img.layers["flash_particles"]))
