@@ -265,6 +265,12 @@ def scene_particles(scene: Scene) -> ParticleSet | None:
 # --- the particles' images ------------------------------------------------------------------------
 #: Most points a particle's image is sampled with (discs wider than ~9 pixels).
 SPLAT_POINTS_MAX = 256
+#: Most points all the particles' images are sampled with (a dense field of large particles gets fewer each).
+SPLAT_POINTS_TOTAL = 4_000_000
+#: Points (or candidate pixels) handled at once.
+_CHUNK_POINTS = 1_000_000
+#: A particle's image wider than this radius (pixels) is labelled only within it in ``particle_id``.
+ID_RADIUS_MAX_PX = 64
 
 
 @dataclass(frozen=True, eq=False)
@@ -354,37 +360,59 @@ def footprint_samples(fp: Footprints, width: int, height: int, range_m: np.ndarr
     if idx.size == 0:
         return
     kpts = np.clip(np.ceil(np.pi * fp.radius_px[idx] ** 2 * 4.0), 4, SPLAT_POINTS_MAX)
+    if kpts.sum() > SPLAT_POINTS_TOTAL:  # a dense field of large particles: fewer points each (at least 1)
+        kpts = np.clip(np.floor(kpts * SPLAT_POINTS_TOTAL / kpts.sum()), 1, SPLAT_POINTS_MAX)
     kpts = (2 ** np.ceil(np.log2(kpts))).astype(int)
     for k in np.unique(kpts):
-        sel = idx[kpts == k]
+        for sel in np.array_split(idx[kpts == k], max(1, int(np.ceil((kpts == k).sum() * k / _CHUNK_POINTS)))):
+            yield from _disc_points(fp, sel, int(k), width, height, range_m)
+
+
+def _disc_points(fp: Footprints, sel: np.ndarray, k: int, width: int, height: int, range_m: np.ndarray):
+    if sel.size:
         q = _spiral(int(k))
         pts = fp.uv[sel, None, :] + np.einsum("nij,kj->nki", fp.jacobian[sel], q) * fp.radius_m[sel, None, None]
-        col = np.floor(pts[..., 0]).astype(np.int64)
-        row = np.floor(pts[..., 1]).astype(np.int64)
+        col = np.floor(np.clip(pts[..., 0], -1, width)).astype(np.int64)
+        row = np.floor(np.clip(pts[..., 1], -1, height)).astype(np.int64)
         inside = (col >= 0) & (col < width) & (row >= 0) & (row < height)
         cc, rr = np.clip(col, 0, width - 1), np.clip(row, 0, height - 1)
         front = inside & (fp.range_m[sel, None] < range_m[rr, cc])
-        if not front.any():
-            continue
-        who = np.broadcast_to(sel[:, None], front.shape)[front]
-        yield who, (rr * width + cc)[front], np.full(who.shape, 1.0 / k)
+        if front.any():
+            who = np.broadcast_to(sel[:, None], front.shape)[front]
+            yield who, (rr * width + cc)[front], np.full(who.shape, 1.0 / k)
 
 
 def particle_id_image(scene: Scene, ps: ParticleSet, width: int, height: int, range_m: np.ndarray) -> np.ndarray:
     """(rows, cols) int32: the 1-based index of the nearest particle whose image (its disc,
     :class:`Footprints`) reaches into the pixel in front of the targets (``range_m``), 0 where none
     does: the instance mask of the particles, from the geometry alone, the same for both engines.  A
-    particle smaller than a pixel marks the pixel it lies in, so its light is inside its mask."""
+    particle smaller than a pixel marks the pixel it lies in, so its light is inside its mask; one whose
+    image is wider than :data:`ID_RADIUS_MAX_PX` marks only the pixels within that radius of its centre."""
     fp = particle_footprints(scene, ps, width, height)
     best = np.full(height * width, np.inf)
     out = np.zeros(height * width, np.int64)
     idx = np.flatnonzero(fp.imaged)
     if idx.size == 0:
         return out.reshape(height, width).astype(np.int32)
-    half = np.ceil(fp.radius_px[idx]).astype(int)
+    idx = idx[np.argsort(fp.range_m[idx], kind="stable")]  # nearest first: once every pixel is labelled, stop
+    half = np.ceil(np.minimum(fp.radius_px[idx], ID_RADIUS_MAX_PX)).astype(int)
     half = np.where(half < 1, 1, 2 ** np.ceil(np.log2(np.maximum(half, 1))).astype(int))
-    for m in np.unique(half):
-        sel = idx[half == m]
+    cost = np.cumsum((2 * half + 1) ** 2)
+    start = 0
+    while start < idx.size:
+        stop = max(start + 1, int(np.searchsorted(cost, cost[start] + _CHUNK_POINTS)))
+        for m in np.unique(half[start:stop]):
+            _mark(fp, idx[start:stop][half[start:stop] == m], int(m), width, height, range_m, best, out)
+        start = stop
+        if np.all(out > 0):
+            break  # the rest are farther than every pixel's label
+    return out.reshape(height, width).astype(np.int32)
+
+
+def _mark(fp: Footprints, sel: np.ndarray, m: int, width: int, height: int, range_m: np.ndarray, best: np.ndarray,
+          out: np.ndarray) -> None:
+    """Label the pixels particles ``sel`` (discs within ``m`` pixels of their centre) reach into, nearest first."""
+    if sel.size:
         Jinv = np.linalg.inv(fp.jacobian[sel])  # metres across the view per pixel
         o = np.arange(-m, m + 1)
         OX, OY = np.meshgrid(o, o)
@@ -401,7 +429,7 @@ def particle_id_image(scene: Scene, ps: ParticleSet, width: int, height: int, ra
         rr = np.clip(r0, 0, height - 1).astype(np.int64)
         inside &= fp.range_m[sel, None] < range_m[rr, cc]
         if not inside.any():
-            continue
+            return
         who = np.broadcast_to(sel[:, None], inside.shape)[inside]
         pix = (rr * width + cc)[inside]
         order = np.argsort(-fp.range_m[who], kind="stable")  # far first: the nearest is written last
@@ -409,4 +437,3 @@ def particle_id_image(scene: Scene, ps: ParticleSet, width: int, height: int, ra
         near = fp.range_m[who_o] < best[pix_o]
         out[pix_o[near]] = who_o[near] + 1
         np.minimum.at(best, pix_o, fp.range_m[who_o])
-    return out.reshape(height, width).astype(np.int32)

@@ -197,6 +197,9 @@ def base_documents() -> dict[str, tuple[tuple[str, dict], ...]]:
         ("iops-posed", {"water": {"a_per_m": 0.1, "b_per_m": 0.3, "phase": "ff:0.0183", "wavelength_nm": 532}}),
         ("original-names", {"water": {"chlorophyllConc": 0.5, "domConc": 0.05, "smallPartConc": 0.0,
                                       "largePartConc": 0.1}}),
+        ("marine-snow", {"water": {"preset": "coastal", "particles": {"level": "coastal", "albedo": 0.1}}}),
+        ("marine-snow-numbers", {"water": {"a_per_m": 0.1, "b_per_m": 0.3, "particles": {
+            "number_per_m3": 5000.0, "d_min_mm": 0.3, "d_max_mm": 4.0, "size_slope": 3.5, "albedo": 0.05}}}),
     )
     studies = (("tiny-study.toml", _doc(ROOT / "tests" / "data" / "tiny-study.toml")),
                ("demo.toml", _doc(ROOT / "studies" / "demo.toml")))
