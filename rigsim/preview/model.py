@@ -166,6 +166,9 @@ MS_CUTOFF_DEG = 30.0
 #: within 2.7 % without it; from clear (0.020 /m, −3.3 %) and coastal (0.039 /m, −5.4 %) up
 #: (Jerlov II 0.044 … 9C 0.38 /m: −24 … −70 % at the worst cell) the missing light showed.
 MS_AUTO_MIN_B_WIDE_PER_M = 0.01
+#: A particle's light scattered by less than this (deg) on its way to the camera stays in its speck; the rest of
+#: its forward-scattered light is a wide glow (:mod:`rigsim.preview.particles`).
+PARTICLE_SPECK_DEG = 1.0
 
 
 def wide_angle_scattering_per_m(water, wavelength_nm: float = 550.0, cutoff_deg: float = MS_CUTOFF_DEG) -> float:
@@ -388,8 +391,18 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
         kap = water.c - water.b * water.F if forward else water.c
         day_b = (scene_daylight(scene, req.band_lo_nm, req.band_hi_nm).band_means(wl, bw)
                  if scene.daylight is not None else None)
+        k_speck, glow = None, 0.0
+        if forward:  # on the way to the camera: a speck of what stays within PARTICLE_SPECK_DEG, a glow of the rest
+            comps = water.components
+            w_c = comps.weights_at(wl)
+            k_speck = water.c - water.b * (w_c @ comps.forward_fraction(np.radians(PARTICLE_SPECK_DEG)))
+            band = (comps.grid.psi_edges[1:] > np.radians(PARTICLE_SPECK_DEG)) & comps.forward_cells(cutoff)
+            mid = np.sqrt(comps.grid.psi_edges[:-1] * comps.grid.psi_edges[1:])
+            mass = comps.masses[:, band].T @ comps.weights_at([550.0])[0]
+            glow = float(np.sqrt(np.sum(mass * mid[band] ** 2) / max(mass.sum(), 1e-300))) if mass.sum() > 0 else 0.0
         pl = particle_layers(scene, ps, width=width, height=height, wl=wl, bw=bw, kappa=kap,
-                             range_m=view.range_m, n_outside=n_out, daylight=day_b, multiple=ms_by_group)
+                             range_m=view.range_m, n_outside=n_out, daylight=day_b, multiple=ms_by_group,
+                             kappa_speck=k_speck, glow_rad=glow)
         cov = pl.coverage[..., None]
         pix_h = pl.hiders[0].astype(np.int64)
         pl = dataclasses.replace(pl, hiders=(pix_h,) + tuple(pl.hiders[1:]))
@@ -845,9 +858,9 @@ class _Group:
         return clear, direct, scattered, src
 
     def veil_in_front(self, pixel: np.ndarray, range_m: np.ndarray) -> np.ndarray:
-        """(n, B) the lights' veil (single and multiply scattered) along the lines of sight of pixels
-        ``pixel`` (flat indices) up to ``range_m`` (n,) from the pupil — what is in front of something at
-        that distance, which it cannot hide."""
+        """(n, B) the veil (the lights' single and multiply scattered light, the daylight's path radiance)
+        along the lines of sight of pixels ``pixel`` (flat indices) up to ``range_m`` (n,) from the pupil —
+        what is in front of something at that distance, which it cannot hide."""
         v = self.view
         range_m = np.asarray(range_m, float)
         out = np.zeros(range_m.shape + (self.B,), np.float32)
@@ -859,6 +872,9 @@ class _Group:
             interpolate_cumulative(cum, shape, gcol, grow, s, C_, R_, t, out=out)
         if self.ms is not None:
             out += self.ms.veil_at(C_, R_, np.asarray(range_m, float)).astype(np.float32)
+        if self.day is not None:  # the daylight's path radiance in front
+            t = np.where(np.isfinite(range_m), np.maximum(range_m - reach, 0.0), np.inf)
+            out += self.day.path_radiance(v.oy_c.reshape(-1)[pixel], v.d_c.reshape(-1, 3)[pixel], t)
         return out
 
     def _backscatter(self, y0: int, y1: int, back: np.ndarray) -> None:

@@ -16,9 +16,11 @@ renderer draws as spheres).  For each particle of diameter ``d`` at distance ``r
   the lights' multiply scattered light (where the image has it, :mod:`rigsim.preview.multiple`), the
   tracer's ``∫ L(ω) p(ω) dω`` in the particle's cell of the water, its flights weighted by that phase
   function towards the camera (:attr:`~rigsim.preview.multiple.MultipleScattering.fluence`).
-* **To the camera** — ``I e^{−κ s} / r²`` at the entrance pupil (``s`` the water path from the port;
-  the small-angle-scattered halo of the speck kept in the speck), spread uniformly over the
-  particle's image: a disc whose angular radius combines the particle's own (``d / 2r``) and the
+* **To the camera** — ``I e^{−κ_speck s} / r²`` at the entrance pupil (``s`` the water path from the
+  port; the light scattered by less than :data:`rigsim.preview.model.PARTICLE_SPECK_DEG` kept in the
+  speck; the rest of the forward-scattered light, ``e^{−κ s} − e^{−κ_speck s}``, a wide glow about it:
+  a Gaussian of the RMS angle of the phase function between those angles, light spread beyond the
+  frame lost), spread uniformly over the particle's image: a disc whose angular radius combines the particle's own (``d / 2r``) and the
   defocus disc's (:func:`rigsim.scene.optics.defocus_blur_rad`) in quadrature, laid out in the
   image through the local Jacobian of :func:`rigsim.scene.optics.project_points` (the port's
   distortion included; :func:`rigsim.scene.particles.particle_footprints`) and sampled by a fixed
@@ -102,9 +104,41 @@ def _diffuse_phase_table(day, diffuse: np.ndarray, cam, n_out: float) -> np.ndar
     return out
 
 
+#: Pixels per cell of the grid on which the particles' glow is spread.
+_GLOW_CELL_PX = 8
+
+
+def _glow(scene, fp, idx, at_pupil: dict, glow_rad: float, width: int, height: int, n_outside: float) -> dict:
+    """The particles' forward-scattered glow (``at_pupil``: irradiance at the pupil per particle, (n, B) per
+    light group) as radiance images (rows, cols, B): each particle's on a coarse grid at its image
+    position, spread by a Gaussian of ``glow_rad`` per axis-pair (σ = glow_rad/√2 each), what leaves the frame
+    lost, then brought to every pixel (radiance = irradiance / solid angle of the coarse cell)."""
+    import cv2
+    from scipy.ndimage import gaussian_filter
+
+    gc, gr = max(1, int(np.ceil(width / _GLOW_CELL_PX))), max(1, int(np.ceil(height / _GLOW_CELL_PX)))
+    om = cell_solid_angles(scene.camera, gc, gr, n_outside=n_outside)  # (gr, gc) sr
+    pitch = float(np.sqrt(np.median(om)))  # rad per coarse cell
+    ic = np.clip((fp.uv[idx, 0] / width * gc).astype(np.int64), 0, gc - 1)
+    ir = np.clip((fp.uv[idx, 1] / height * gr).astype(np.int64), 0, gr - 1)
+    inside = (fp.uv[idx, 0] >= 0) & (fp.uv[idx, 0] < width) & (fp.uv[idx, 1] >= 0) & (fp.uv[idx, 1] < height)
+    cell = (ir * gc + ic)[inside]
+    sig = glow_rad / np.sqrt(2.0) / pitch
+    out = {}
+    for key, val in at_pupil.items():
+        B = val.shape[1]
+        g = np.stack([np.bincount(cell, weights=val[inside, j], minlength=gr * gc) for j in range(B)], -1)
+        g = g.reshape(gr, gc, B)
+        g = gaussian_filter(g, (sig, sig, 0), mode="constant") / om[..., None]  # energy beyond the frame is lost
+        out[key] = cv2.resize(g.astype(np.float32), (width, height), interpolation=cv2.INTER_LINEAR).reshape(
+            height, width, B) if (gr, gc) != (height, width) else g.astype(np.float32)
+    return out
+
+
 def particle_layers(scene: Scene, ps: ParticleSet, *, width: int, height: int, wl: np.ndarray, bw: np.ndarray,
                     kappa: np.ndarray, range_m: np.ndarray, n_outside: float, daylight=None,
-                    multiple: dict | None = None, kappa_camera: np.ndarray | None = None) -> ParticleLayers:
+                    multiple: dict | None = None, kappa_speck: np.ndarray | None = None,
+                    glow_rad: float = 0.0) -> ParticleLayers:
     """The particles' layers of a ``width × height`` image at bands ``wl`` (nm, widths ``bw``).
 
     Parameters
@@ -112,8 +146,11 @@ def particle_layers(scene: Scene, ps: ParticleSet, *, width: int, height: int, w
     kappa
         (B,) attenuation with the forward-scattered light kept (1/m) at the band centres (``c`` without
         forward scattering): the lights' way to the particles.
-    kappa_camera
-        (B,) the same for the way to the camera (None: ``kappa``).
+    kappa_speck, glow_rad
+        On the way to the camera the light scattered by less than the speck's angle stays in the speck:
+        ``e^{−κ_speck s}``; the rest of the forward-scattered light (``e^{−κ s} − e^{−κ_speck s}``) is a glow
+        about it, a Gaussian of ``glow_rad`` (rad, the RMS angle of that part of the phase function; light
+        spread beyond the frame leaves the image).  None: all of ``e^{−κ s}`` in the speck.
     range_m
         (rows, cols) range of the targets (inf: open water) from the pupil.
     daylight
@@ -172,7 +209,9 @@ def particle_layers(scene: Scene, ps: ParticleSet, *, width: int, height: int, w
     at_pupil = {}
     pos = np.full(len(P), -1)
     pos[idx] = np.arange(len(idx))
-    T = np.exp(-np.outer(s_water[idx], kappa if kappa_camera is None else kappa_camera)) / (rng[idx] ** 2)[:, None]
+    k_sp = kappa if kappa_speck is None else kappa_speck
+    T = np.exp(-np.outer(s_water[idx], k_sp)) / (rng[idx] ** 2)[:, None]
+    glow_T = (np.exp(-np.outer(s_water[idx], kappa)) / (rng[idx] ** 2)[:, None] - T) if kappa_speck is not None else None
     for k, v in inten.items():
         at_pupil[k] = v * T
     solid = cell_solid_angles(cam, width, height, n_outside=n_outside).ravel()  # sr per pixel
@@ -192,6 +231,10 @@ def particle_layers(scene: Scene, ps: ParticleSet, *, width: int, height: int, w
         hid_pix.append(pix)
         hid_r.append(rng[who])
         hid_w.append(geo[who] * w)
+    if glow_T is not None and glow_rad > 0 and idx.size:
+        glow = _glow(scene, fp, idx, {k: v * glow_T for k, v in inten.items()}, glow_rad, width, height, n_outside)
+        for k in out:
+            out[k] += glow[k].reshape(-1)
     return ParticleLayers(radiance=out["continuous"].reshape(shape).astype(np.float32),
                           flash=out["strobe"].reshape(shape).astype(np.float32),
                           coverage=np.clip(cover, 0.0, 1.0).reshape(height, width).astype(np.float32),
