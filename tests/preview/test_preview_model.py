@@ -11,10 +11,12 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from rigsim.config.rig import load_rig
 from rigsim.errors import ConfigError
 from rigsim.preview import PREVIEW_LAYERS, RENDERER_NAME
 from rigsim.preview import render_preview as _render_preview
 from rigsim.preview.forward import SmallAngle
+from rigsim.scene.build import build_scene
 from rigsim.scene.phase_tables import phase_tables
 from rigsim.scene.types import BeamPattern, Daylight, Rig, Scene, Target
 from rigsim.spectral_image import SpectralImage
@@ -33,8 +35,9 @@ BW = 10.0
 
 
 def render_preview(scene, **kw):
-    """The analytic model alone (see module docstring)."""
-    return _render_preview(scene, **{"multiple": False, **kw})
+    """The analytic model alone (see module docstring), at the pixel centres (the exact solutions below
+    are per pixel centre; the edge pixels' box mean is tested on its own)."""
+    return _render_preview(scene, **{"multiple": False, "edge_samples": 1, **kw})
 
 
 def _two_lights(kind="strobe"):
@@ -258,3 +261,17 @@ def test_a_band_straddling_a_step_in_the_light_spectrum_gets_its_average():
         # the same scene with a flat spectrum takes out the water's and target's own difference between the bands
         ratio = band_ratio(light, layer) / band_ratio(flat, layer)
         assert ratio == pytest.approx(0.5, rel=0.01), (layer, ratio)
+
+
+def test_edge_pixels_box_mean_equals_full_supersampling():
+    """Supersampling only the pixels on an edge gives the image that supersampling every pixel gives (the
+    surfaces' light is smooth inside an object), and it differs from the pixel centres' image on the edges."""
+    rig = load_rig("rigs/twin-strobes-close-to-port.toml")
+    scene = build_scene(rig, "clear", "colorchecker", 1.0, size_m=0.5)
+    kw = dict(width=48, height=32, wavelengths_nm=WL, bandwidth_nm=BW, split=True)
+    edge = render_preview(scene, edge_samples=4, **kw).layers["flash"]
+    full = render_preview(scene, pixel_samples=4, **kw).layers["flash"]
+    centre = render_preview(scene, **kw).layers["flash"]
+    np.testing.assert_allclose(edge.sum(axis=(0, 1)), full.sum(axis=(0, 1)), rtol=2e-3)
+    assert np.max(np.abs(edge - full)) <= 0.02 * np.max(full)
+    assert np.max(np.abs(centre - full)) > 0.2 * np.max(full)  # the chart's frame and patches alias

@@ -31,7 +31,7 @@ WL3 = dict(wavelengths_nm=[450.0, 550.0, 650.0], bandwidth_nm=10.0)
 
 def render_preview(scene, **kw):
     """The analytic model (the frozen reference has no multiply scattered light)."""
-    return _render_preview(scene, **{"multiple": False, **kw})
+    return _render_preview(scene, **{"multiple": False, "edge_samples": 1, **kw})
 
 
 def _lights():
