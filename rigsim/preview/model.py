@@ -198,7 +198,8 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
                    layers: Sequence[str] = ("range_m", "clear", "object_id"), split: bool = False,
                    shadows: bool = False, forward_scatter: bool = True, forward_cutoff_deg: float | None = None,
                    sub_bands: int = 3, pixel_samples: int = 1, edge_samples: int = 4,
-                   backscatter_grid: int | None = 32, backscatter_nodes: int = 64, multiple: bool | str = "auto", photons: int | None = None,
+                   backscatter_grid: int | None = 32, backscatter_nodes: int = 64, multiple: bool | str = "auto",
+                   photons: int | None = None,
                    ms_grid: int | None = None, ms_truncate_deg: float | None = None, spp: int | None = None,
                    seed: int | None = None,
                    max_depth: int | None = None, progress: ProgressCallback | None = None,
@@ -403,10 +404,7 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
             comps = water.components
             w_c = comps.weights_at(wl)
             k_speck = water.c - water.b * (w_c @ comps.forward_fraction(np.radians(PARTICLE_SPECK_DEG)))
-            band = (comps.grid.psi_edges[1:] > np.radians(PARTICLE_SPECK_DEG)) & comps.forward_cells(cutoff)
-            mid = np.sqrt(comps.grid.psi_edges[:-1] * comps.grid.psi_edges[1:])
-            mass = comps.masses[:, band].T @ comps.weights_at([550.0])[0]
-            glow = float(np.sqrt(np.sum(mass * mid[band] ** 2) / max(mass.sum(), 1e-300))) if mass.sum() > 0 else 0.0
+            glow = comps.rms_angle_rad(np.radians(PARTICLE_SPECK_DEG), cutoff, 550.0)
         pl = particle_layers(scene, ps, width=width, height=height, wl=wl, bw=bw, kappa=kap,
                              range_m=view.range_m, n_outside=n_out, daylight=day_b, multiple=ms_by_group,
                              kappa_speck=k_speck, glow_rad=glow)
@@ -469,7 +467,8 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
         "particles": particles_meta,
         "preview": {"forward_scatter": forward, "forward_cutoff_deg": float(forward_cutoff_deg),
                     "shadows": bool(shadows), "sub_bands": sub_bands, "pixel_samples": pixel_samples,
-                    "edge_samples": edge_samples, "backscatter_grid": backscatter_grid, "backscatter_nodes": backscatter_nodes,
+                    "edge_samples": edge_samples, "backscatter_grid": backscatter_grid,
+                    "backscatter_nodes": backscatter_nodes,
                     "threads": threads, "multiple_scattering": bool(multiple), "multiple": ms_info,
                     "ignored": {"spp": spp, "max_depth": max_depth}},
     }
@@ -923,40 +922,35 @@ class _Group:
         return clear, direct, scattered, src
 
     def veil_in_front(self, pixel: np.ndarray, range_m: np.ndarray) -> np.ndarray:
-        """(n, B) the veil (the lights' single and multiply scattered light, the daylight's path radiance)
-        along the lines of sight of pixels ``pixel`` (flat indices) up to ``range_m`` (n,) from the pupil —
-        what is in front of something at that distance, which it cannot hide."""
+        """(n, B) the veil along the lines of sight of pixels ``pixel`` (flat indices) up to ``range_m`` (n,)
+        from the pupil — what is in front of something at that distance, which it cannot hide."""
         v = self.view
         range_m = np.asarray(range_m, float)
+        t = np.where(np.isfinite(range_m), np.maximum(range_m - port_reach_m(v.camera), 0.0), np.inf)
         out = np.zeros(range_m.shape + (self.B,), np.float32)
-        C_, R_ = v.cols[pixel % v.width], v.rows[pixel // v.width]
-        reach = port_reach_m(self.view.camera)
-        if self.grid is not None:
-            cum, shape, gcol, grow, s = self.grid
-            t = np.where(np.isfinite(range_m), np.maximum(range_m - reach, 0.0), np.inf)
-            interpolate_cumulative(cum, shape, gcol, grow, s, C_, R_, t, out=out)
-        if self.ms is not None:
-            out += self.ms.veil_at(C_, R_, np.asarray(range_m, float)).astype(np.float32)
-        if self.day is not None:  # the daylight's path radiance in front
-            t = np.where(np.isfinite(range_m), np.maximum(range_m - reach, 0.0), np.inf)
-            out += self.day.path_radiance(v.oy_c.reshape(-1)[pixel], v.d_c.reshape(-1, 3)[pixel], t)
+        self._veil(v.cols[pixel % v.width], v.rows[pixel // v.width], v.oy_c.reshape(-1)[pixel],
+                   v.d_c.reshape(-1, 3)[pixel], t, range_m, out)
         return out
 
     def _backscatter(self, y0: int, y1: int, back: np.ndarray) -> None:
-        """``back`` (rows, W, B) = backscatter of the lights + multiply scattered veil (paths that met no
-        target, as the renderer's ``backscatter`` layer) + daylight path radiance."""
+        """``back`` (rows, W, B) = the veil of each pixel's whole line of sight (paths that met no target, as
+        the renderer's ``backscatter`` layer)."""
         v = self.view
         back[...] = 0.0
-        if self.grid is None and self.ms is None and self.day is None:
-            return
         C_, R_ = np.meshgrid(v.cols, v.rows[y0:y1])
+        self._veil(C_, R_, v.oy_c[y0:y1], v.d_c[y0:y1], v.t_c[y0:y1], v.range_m[y0:y1].astype(float), back)
+
+    def _veil(self, cols, rows, oy, d, t_port, range_m, out) -> None:
+        """``out`` += the veil along lines of sight at image positions (cols, rows) (origin heights ``oy``,
+        directions ``d``) up to ``t_port`` from the port (``range_m`` from the pupil; inf: all of it): the
+        lights' backscatter, the multiply scattered veil and the daylight's path radiance."""
         if self.grid is not None:
             cum, shape, gcol, grow, s = self.grid
-            interpolate_cumulative(cum, shape, gcol, grow, s, C_, R_, v.t_c[y0:y1], out=back)
+            interpolate_cumulative(cum, shape, gcol, grow, s, cols, rows, t_port, out=out)
         if self.ms is not None:
-            back += self.ms.veil_at(C_, R_, v.range_m[y0:y1].astype(float))
+            out += self.ms.veil_at(cols, rows, range_m).astype(out.dtype)
         if self.day is not None:
-            back += self.day.path_radiance(v.oy_c[y0:y1], v.d_c[y0:y1], v.t_c[y0:y1])
+            out += self.day.path_radiance(oy, d, t_port)
 
 
 def _times_expm1(v: np.ndarray, x: np.ndarray) -> np.ndarray:

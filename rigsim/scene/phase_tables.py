@@ -104,6 +104,18 @@ class PhaseTables:
         """(K,) probability of scattering by less than ``cutoff_rad`` (cells wholly below it)."""
         return self.masses[:, self.forward_cells(cutoff_rad)].sum(axis=1)
 
+    def rms_angle_rad(self, lo_rad: float, hi_rad: float, wavelength_nm: float) -> float:
+        """RMS scattering angle (rad) of the phase function at ``wavelength_nm`` (nm) over the cells below
+        ``hi_rad`` that are not below ``lo_rad`` (:meth:`forward_cells`: the mass ``forward_fraction(hi_rad)
+        − forward_fraction(lo_rad)``), each at its log-midpoint angle; 0 where they hold no mass."""
+        e = self.grid.psi_edges
+        cells = self.forward_cells(hi_rad) & ~self.forward_cells(lo_rad)
+        mass = self.masses[:, cells].T @ self.weights_at([wavelength_nm])[0]
+        if not mass.sum() > 0:
+            return 0.0
+        mid = np.sqrt(e[:-1][cells] * e[1:][cells])
+        return float(np.sqrt(np.sum(mass * mid ** 2) / mass.sum()))
+
     def forward_cells(self, cutoff_rad: float) -> np.ndarray:
         """Mask of the cells that lie wholly below the angle ``cutoff_rad``."""
         return self.grid.psi_edges[1:] <= cutoff_rad * (1 + 1e-12)
