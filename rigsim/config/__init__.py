@@ -5,6 +5,8 @@
   errors), the value types and :func:`~rigsim.schema.config_error` (one-line
   errors naming file, field path and allowed range).
 * :func:`load_rig` — a rig file (TOML, format in ``rigs/README.md``) → :class:`~rigsim.scene.types.Rig`.
+* :mod:`rigsim.config.rigdoc` — a rig file as an editable document (the rig designer's edits and the
+  optimiser's moves, written back as the same TOML).
 * :mod:`rigsim.config.water` — water files and presets; sensors, studies and datasets
   are read by :mod:`rigsim.sensor.model`, :mod:`rigsim.study.spec` and
   :mod:`rigsim.dataset.spec` with the same mechanism.

@@ -16,7 +16,7 @@ relative to the entrance pupil: components ``[right, up, forward]`` (m), where
 *up* is the image's up.  They are converted to world coordinates here, so the
 ``Light`` objects in the ``Rig`` are in the world frame.
 
-The conventions, and their inverses (for editors such as :mod:`rigsim.ui.rigdoc`):
+The conventions, and their inverses (for editors such as :mod:`rigsim.config.rigdoc`):
 
 * arm: :func:`arm_to_position` / :func:`position_to_arm`;
 * yaw and pitch: :func:`yaw_pitch_to_direction` / :func:`direction_to_yaw_pitch`;

@@ -1,6 +1,7 @@
 """The rig designer's package-side pieces (no physics here).
 
-* :mod:`rigsim.ui.rigdoc` — a rig file as an editable document: the UI's edits
+* :mod:`rigsim.config.rigdoc` (in the config layer, shared with the optimiser) — a rig file as an
+  editable document: the UI's edits
   (arm length, aim, beam, power …) become the rig file's own keys, validated by
   :func:`rigsim.config.rig.parse_rig`, and written back as the same TOML.
 * :mod:`rigsim.ui.files` — the folders the app may read and write (``rigs/`` and

@@ -40,7 +40,7 @@ from rigsim.ui.files import FileSandbox, default_rigs_dir
 from rigsim.ui.handles import LightHandles, ensure_interactor, on_plane
 from rigsim.ui.predict import (COMPARE, PREVIEW, QUALITIES, Quality, TARGETS, WHITE_BALANCES, Conditions, Prediction,
                                contrast_curve, load_water_cached, predict, preview_engine)
-from rigsim.ui.rigdoc import SPECTRA, RigDoc, parse_number
+from rigsim.config.rigdoc import SPECTRA, RigDoc, parse_number
 
 log = logging.getLogger(__name__)
 

@@ -4,7 +4,7 @@ One VTK handle widget (a sphere) sits on each light's head.  Dragging it moves t
 handle in the plane parallel to the screen through the light; when the mouse is
 released, :class:`LightHandles` reports the light's index and new world position to
 the app, which turns it into arm length, arm angle and forward offset in the camera
-frame (:meth:`rigsim.ui.rigdoc.RigDoc.move_light`), validates it like any other edit
+frame (:meth:`rigsim.config.rigdoc.RigDoc.move_light`), validates it like any other edit
 (a light inside the housing is refused and its handle goes back) and updates the
 preview.  Pressing on a handle selects that light.
 

@@ -70,7 +70,7 @@ def test_light_table_file_values_round_trip():
 @pytest.mark.parametrize("path", RIGS, ids=lambda p: p.stem)
 def test_designer_view_is_the_inverse_of_the_reader(path):
     """rigdoc's arm/yaw/pitch view, put back through the reader, gives the same world position and aim."""
-    from rigsim.ui.rigdoc import RigDoc
+    from rigsim.config.rigdoc import RigDoc
 
     doc = RigDoc.load(path)
     rig = load_rig(path)
@@ -84,7 +84,7 @@ def test_designer_view_is_the_inverse_of_the_reader(path):
 
 
 def test_designer_spectra_are_the_readers():
-    from rigsim.ui import rigdoc
+    from rigsim.config import rigdoc
 
     assert rigdoc.SPECTRA is SPECTRUM_NAMES and set(SPECTRUM_NAMES) == set(SPECTRUM_METHODS)
     assert not hasattr(rigdoc, "_yaw_pitch") and not hasattr(rigdoc, "_local_position")

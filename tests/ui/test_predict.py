@@ -10,7 +10,7 @@ import pytest
 
 from rigsim.errors import ConfigError
 from rigsim.ui.predict import Conditions, contrast_curve, predict
-from rigsim.ui.rigdoc import RigDoc
+from rigsim.config.rigdoc import RigDoc
 
 ROOT = Path(__file__).resolve().parents[2]
 

@@ -11,7 +11,7 @@ import pytest
 
 from rigsim.config.rig import load_rig
 from rigsim.errors import ConfigError
-from rigsim.ui.rigdoc import RigDoc, dumps_toml
+from rigsim.config.rigdoc import RigDoc, dumps_toml
 
 ROOT = Path(__file__).resolve().parents[2]
 RIGS = sorted((ROOT / "rigs").glob("*.toml"))
@@ -108,7 +108,7 @@ def test_relocated_keeps_csv_paths(tmp_path):
     assert load_rig(dst / "r.toml").lights[0].beam.kind == "table"
 
 
-@pytest.mark.parametrize("mod", ["rigsim.ui.rigdoc", "rigsim.ui.files"])
+@pytest.mark.parametrize("mod", ["rigsim.config.rigdoc", "rigsim.ui.files"])
 def test_doctests(mod):
     import doctest
     import importlib
