@@ -60,7 +60,7 @@ from rigsim.light.sources import strobe_light, video_light
 from rigsim.light.spectra import SPECTRUM_METHODS
 from rigsim.scene.types import BeamPattern, Camera, Light, Port, Rig
 
-__all__ = ["load_rig", "parse_rig", "RigFile", "RigTable", "CameraTable", "PortTable", "LightTable",
+__all__ = ["load_rig", "parse_rig", "RigFile", "RigTable", "LimitsTable", "CameraTable", "PortTable", "LightTable",
            "SPECTRUM_NAMES", "DEFAULT_SPECTRUM", "arm_to_position", "position_to_arm", "yaw_pitch_to_direction",
            "direction_to_yaw_pitch", "camera_to_world"]
 
@@ -320,6 +320,59 @@ class LightTable(FileModel):
                                 power_fraction=frac, spectrum=self.spectrum_name, base_dir=base_dir)
 
 
+def _interval(lo_min: float, hi_max: float, unit: str):
+    """A ``[lo, hi]`` pair within ``[lo_min, hi_max]`` (``unit``), lo <= hi."""
+    def check(v):
+        if not isinstance(v, (list, tuple)) or len(v) != 2:
+            raise invalid("must be a pair [low, high]", allowed=f"[low, high] within {lo_min:g} … {hi_max:g} {unit}")
+        lo, hi = (_real_or_fail(x, lo_min, hi_max, unit) for x in v)
+        if lo > hi:
+            raise invalid(f"low {lo:g} is above high {hi:g}", allowed="low <= high")
+        return lo, hi
+    return Annotated[tuple[float, float], BeforeValidator(check), Unit(unit)]
+
+
+def _real_or_fail(x, lo: float, hi: float, unit: str) -> float:
+    if isinstance(x, bool) or not isinstance(x, (int, float)) or not math.isfinite(float(x)) \
+            or not lo <= float(x) <= hi:
+        raise invalid(f"{x!r} is not a number within {lo:g} … {hi:g} {unit}", allowed=f"{lo:g} … {hi:g} {unit}")
+    return float(x)
+
+
+def _beam_options(v):
+    if not isinstance(v, (list, tuple)) or not 1 <= len(v) <= 8:
+        raise invalid("must be a list of 1 to 8 beam angles", allowed="e.g. [80, 110] (deg: diffuser off, on)")
+    return tuple(sorted({_real_or_fail(x, 1.0, 359.0, "deg") for x in v}))
+
+
+class LimitsTable(FileModel):
+    """``[limits]``: what the rig's hardware allows, for ``rigsim optimise`` (all optional).
+
+    Keys are the placement of each light as a diver states it, in the camera frame of the
+    file (:func:`arm_to_position`, :func:`yaw_pitch_to_direction`).  For a mirrored pair of
+    lights (the left one the mirror image of the right one about the vertical plane through
+    the lens axis) ``arm_elevation_deg`` is the right arm's angle above the horizontal and
+    ``yaw_out_deg`` the turn away from the lens axis (positive = outward); a single light or
+    lights moved one by one use ``arm_angle_deg`` (a span about each light's own angle) and
+    ``yaw_deg``.  ``beam_angles_deg`` lists the beams the lights can be given (e.g. a strobe
+    without and with its diffuser).  Limits the file does not state are
+    :data:`rigsim.optimise.space.DEFAULT_LIMITS`.
+    """
+
+    arm_length_m: _interval(0.0, 5.0, "m") | None = None
+    arm_forward_m: _interval(-5.0, 5.0, "m") | None = None
+    arm_elevation_deg: _interval(-90.0, 90.0, "deg") | None = None
+    arm_angle_span_deg: Annotated[Real, Field(ge=0, le=180), Unit("deg either side of each light's own")] | None = None
+    yaw_out_deg: _interval(-90.0, 90.0, "deg") | None = None
+    yaw_deg: _interval(-90.0, 90.0, "deg") | None = None
+    pitch_deg: _interval(-90.0, 90.0, "deg") | None = None
+    beam_angles_deg: Annotated[tuple[float, ...], BeforeValidator(_beam_options), Unit("deg")] | None = None
+
+    def stated(self) -> dict:
+        """The limits the file states (key → value)."""
+        return {k: v for k, v in self.model_dump().items() if v is not None}
+
+
 def _lights_array(v):
     if not isinstance(v, (list, tuple)):
         raise invalid("must be an array of tables [[lights]]", allowed="[[lights]] tables")
@@ -327,7 +380,7 @@ def _lights_array(v):
 
 
 class RigFile(FileModel):
-    """A whole rig file: ``[rig]``, ``[camera]``, ``[port]`` and ``[[lights]]``.
+    """A whole rig file: ``[rig]``, ``[camera]``, ``[port]``, ``[[lights]]`` and the optional ``[limits]``.
 
     Across tables: light names must be unique and every light must sit outside the
     housing sphere (``camera.housing_radius_m`` around the entrance pupil).
@@ -337,6 +390,7 @@ class RigFile(FileModel):
     camera: CameraTable = CameraTable()
     port: PortTable = PortTable()
     lights: Annotated[tuple[LightTable, ...], BeforeValidator(_lights_array)] = ()
+    limits: LimitsTable = LimitsTable()
 
     def light_names(self) -> list[str]:
         """Names of the lights (``light<i>`` where a table names none)."""

@@ -304,6 +304,34 @@ class RigDoc:
         t["arm_forward_m"] = _clean(forward, 3)
         return self._validated(data)
 
+    def place_lights(self, placements: dict[int, dict]) -> "RigDoc":
+        """A new document with lights moved, validated once (the optimiser's move).
+
+        ``placements`` maps a light's index to its new ``arm_length_m``, ``arm_angle_deg``,
+        ``arm_forward_m``, ``yaw_deg``, ``pitch_deg`` (all required) and optionally
+        ``beam_angle_deg`` (a cone beam replacing any profile); they are written as the file's arm and
+        angle keys (mm, 0.01°).  Raises :class:`ConfigError` like any edit (a light inside the housing …).
+        """
+        lights = self.data.get("lights", [])
+        data = copy.deepcopy(self.data)
+        for index, p in placements.items():
+            if not 0 <= index < len(lights):
+                raise ConfigError(f"no light number {index}", field="lights")
+            t = data["lights"][index]
+            for key in ("position_m", "aim", "aim_at_m"):
+                t.pop(key, None)
+            for key, nd in (("arm_length_m", 3), ("arm_angle_deg", 2), ("arm_forward_m", 3), ("yaw_deg", 2),
+                            ("pitch_deg", 2), ("beam_angle_deg", 2)):
+                if key not in p:
+                    if key == "beam_angle_deg":
+                        continue
+                    raise ConfigError("missing from the placement", field=f"lights[{index}].{key}")
+                t[key] = _clean(parse_number(p[key], f"lights[{index}].{key}"), nd)
+            t["arm_angle_deg"] %= 360.0
+            if "beam_angle_deg" in p:
+                t.pop("beam_profile", None)
+        return self._validated(data)
+
     def set_aim_mode(self, index: int, mode: str) -> "RigDoc":
         """Switch light ``index`` between aiming by ``angles`` (yaw/pitch) and at a ``point``."""
         view = self.light_view(index)
