@@ -30,7 +30,7 @@ import numpy as np
 
 from rigsim.errors import FolderInUse, OutputError
 
-__all__ = ["cache_dir", "atomic_write_bytes", "atomic_write_text", "atomic_write_npz", "ensure_folder",
+__all__ = ["cache_dir", "png_bytes", "atomic_write_bytes", "atomic_write_text", "atomic_write_npz", "ensure_folder",
            "check_writable", "staged_output", "output_folder", "folder_lock", "remove_stale_temp_files",
            "drop_unreadable_records", "LOCK_NAME"]
 
@@ -108,6 +108,16 @@ def atomic_write_bytes(path: str | Path, data: bytes) -> None:
     except BaseException:
         Path(tmp).unlink(missing_ok=True)
         raise
+
+
+def png_bytes(rgb8: np.ndarray) -> bytes:
+    """PNG bytes of an 8-bit RGB image (zlib level 3: a photograph-sized image in ~0.1 s)."""
+    import cv2
+
+    ok, buf = cv2.imencode(".png", np.ascontiguousarray(rgb8[..., ::-1]), [cv2.IMWRITE_PNG_COMPRESSION, 3])
+    if not ok:
+        raise RuntimeError("PNG encoding failed")
+    return buf.tobytes()
 
 
 def atomic_write_text(path: str | Path, text: str) -> None:

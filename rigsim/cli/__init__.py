@@ -41,7 +41,7 @@ app = typer.Typer(name="rigsim", no_args_is_help=True, add_completion=False,
                   help="Underwater camera and lighting-rig design simulator.")
 
 #: Modules that add commands to ``app`` (imported lazily by :func:`main`).
-COMMAND_MODULES = ["rigsim.cli.water", "rigsim.cli.render", "rigsim.cli.sensor", "rigsim.cli.ambient", "rigsim.cli.study", "rigsim.cli.dataset", "rigsim.cli.designer",
+COMMAND_MODULES = ["rigsim.cli.water", "rigsim.cli.render", "rigsim.cli.sensor", "rigsim.cli.ambient", "rigsim.cli.study", "rigsim.cli.dataset", "rigsim.cli.designer", "rigsim.cli.optimise",
                    "rigsim.cli.demo"]
 
 #: Levels accepted by ``--log-level``.

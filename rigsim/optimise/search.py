@@ -42,7 +42,7 @@ from rigsim.optimise.objective import (
 )
 from rigsim.optimise.space import Space
 
-__all__ = ["Optimum", "optimise", "Evaluator", "GLOBAL_POINTS", "LOCAL_EVALUATIONS"]
+__all__ = ["Optimum", "optimise", "search", "Evaluator", "GLOBAL_POINTS", "LOCAL_EVALUATIONS"]
 
 #: Placements of the global look (a power of two, as Sobol sequences balance best).
 GLOBAL_POINTS = 64
@@ -154,7 +154,8 @@ class Optimum:
             "parameters": [{"key": p.key, "light": p.light, "lo": p.lo, "hi": p.hi, "options": list(p.options)}
                            for p in self.space.parameters],
             "mirrored_pair": list(self.space.pair) if self.space.pair else None,
-            "start_placement": self.space.describe(self.start_x), "best_placement": self.space.describe(self.best_x),
+            "start_placement": self.space.describe_doc(self.start_doc),
+            "best_placement": self.space.describe_doc(self.best_doc),
             "start": self.start.record(self.weights), "best": self.best.record(self.weights),
             "start_search_score": self.start_search_score, "best_search_score": self.best_search_score,
             "improvement": self.improvement, "evaluations": self.evaluations, "seconds": self.seconds,
@@ -188,6 +189,63 @@ def _nelder_mead(fun, u0: np.ndarray, fixed: np.ndarray, free: np.ndarray, maxfe
     return u, float(res.fun)
 
 
+def search(space: Space, fun: Callable[[np.ndarray], float], *, seed: int = 0, global_points: int = GLOBAL_POINTS,
+           local_evaluations: int = LOCAL_EVALUATIONS, progress: ProgressCallback | None = None,
+           calls: Callable[[], int] | None = None) -> tuple[np.ndarray, float, float, list[tuple[int, float]]]:
+    """Minimise ``fun(x)`` (``x`` a point of ``space``, in its units) by the module's method.
+
+    Returns ``(best x, its value, the value at space.start(), history)``; ``fun`` is only ever called at
+    points within the space's limits (the beam as an option index).  ``calls`` counts evaluations for the
+    progress messages (default: calls of ``fun``).
+    """
+    from scipy.stats import qmc
+
+    tick = progress or (lambda f, m: None)
+    n_calls = [0]
+
+    def f(u):
+        n_calls[0] += 1
+        return fun(space.from_unit(u))
+
+    count = calls or (lambda: n_calls[0])
+    beam = space.beam
+    budget = global_points + local_evaluations * (1 + (len(beam.options) - 1 if beam else 0))
+    u_start = space.to_unit(space.start())
+    s_start = f(u_start)
+    pts = qmc.Sobol(d=space.dim, scramble=True, seed=seed).random(max(2, int(global_points)))
+    best_u, best_s = u_start, s_start
+    for i, u in enumerate(pts):
+        s = f(u)
+        if s < best_s:
+            best_u, best_s = u, s
+        if i % 8 == 7:
+            tick(count() / budget, f"global look: {i + 1}/{len(pts)} placements, best score {best_s:.4g}")
+    history = [(count(), best_s)]
+    free = np.array([j for j, p in enumerate(space.parameters) if not p.options and p.hi > p.lo], int)
+    tick(count() / budget, "local refinement")
+    snapped = space.to_unit(space.from_unit(best_u))
+    u_loc, s_loc = _nelder_mead(f, snapped, snapped, free, local_evaluations)
+    if s_loc <= best_s:
+        best_u, best_s = u_loc, s_loc
+    history.append((count(), best_s))
+    if beam is not None:
+        j = space.dim - 1
+        current = space.from_unit(best_u)[j]
+        for k in range(len(beam.options)):
+            if k == int(round(current)):
+                continue
+            u = best_u.copy()
+            u[j] = space.to_unit(np.where(np.arange(space.dim) == j, k, space.from_unit(best_u)))[j]
+            tick(min(1.0, count() / budget), f"beam {beam.options[k]:g} deg")
+            if f(u) < best_s:
+                u2, s2 = _nelder_mead(f, u, u, free, local_evaluations)
+                if s2 < best_s:
+                    best_u, best_s = u2, s2
+        history.append((count(), best_s))
+    tick(1.0, "search done")
+    return space.from_unit(best_u), float(best_s), float(s_start), history
+
+
 def optimise(doc: RigDoc, setting: Setting, *, weights: Weights = DEFAULT_WEIGHTS, limits: dict | None = None,
              symmetric: bool | None = None, seed: int = 0, global_points: int = GLOBAL_POINTS,
              local_evaluations: int = LOCAL_EVALUATIONS, progress: ProgressCallback | None = None) -> Optimum:
@@ -217,49 +275,17 @@ def optimise(doc: RigDoc, setting: Setting, *, weights: Weights = DEFAULT_WEIGHT
     ConfigError
         A rig without lights, limits that leave nothing to search, an unknown water or sensor.
     """
-    from scipy.stats import qmc
-
     t0 = time.perf_counter()
     tick = progress or (lambda f, m: None)
     space = Space.of(doc, limits=limits, symmetric=symmetric)
     ev = Evaluator(space, setting, weights, SEARCH, seed)
-    budget = global_points + local_evaluations * (1 + max(0, len(space.beam.options) - 1 if space.beam else 0))
     x_start = space.start()
-    u_start = space.to_unit(x_start)
-    f = lambda u: ev(space.from_unit(u))  # noqa: E731
-    history = []
-    s_start = f(u_start)
-    sob = qmc.Sobol(d=space.dim, scramble=True, seed=seed)
-    pts = sob.random(max(2, int(global_points)))
-    best_u, best_s = u_start, s_start
-    for i, u in enumerate(pts):
-        s = f(u)
-        if s < best_s:
-            best_u, best_s = u, s
-        if i % 8 == 7:
-            tick(0.6 * ev.calls / budget, f"global look: {i + 1}/{len(pts)} placements, best score {best_s:.4g}")
-    history.append((ev.calls, best_s))
-    beam = space.beam
-    free = np.array([j for j, p in enumerate(space.parameters) if not p.options and p.hi > p.lo], int)
-    tick(0.6 * ev.calls / budget, "local refinement")
-    best_u, best_s = _nelder_mead(f, space.to_unit(space.from_unit(best_u)), space.to_unit(space.from_unit(best_u)),
-                                  free, local_evaluations)
-    history.append((ev.calls, best_s))
-    if beam is not None:
-        j = space.dim - 1
-        for k in range(len(beam.options)):
-            u = best_u.copy()
-            u[j] = k / max(1, len(beam.options) - 1)
-            if np.isclose(space.from_unit(u)[j], space.from_unit(best_u)[j]):
-                continue
-            tick(0.6 * ev.calls / budget, f"beam {beam.options[k]:g} deg")
-            if f(u) < best_s:
-                best_u, best_s = _nelder_mead(f, u, u, free, local_evaluations)
-        history.append((ev.calls, best_s))
+    best_x, best_s, s_start, history = search(space, ev, seed=seed, global_points=global_points,
+                                              local_evaluations=local_evaluations,
+                                              progress=lambda f, m: tick(0.8 * f, m), calls=lambda: ev.calls)
     if best_s >= REFUSED:
         raise ConfigError("no placement within the limits is usable (every one puts a light inside the housing "
                           "or in the picture)", file=doc.source, field="limits", allowed="wider limits")
-    best_x = space.from_unit(best_u)
     best_doc = space.apply(best_x)
     tick(0.8, "measuring the start and the optimum with multiple scattering")
     start_eval = ev.evaluation(doc, REPORT)

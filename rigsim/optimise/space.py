@@ -244,10 +244,11 @@ class Space:
             x.append(p.clip(self._start_value(p)))
         return np.array(x, float)
 
-    def _start_value(self, p: Parameter) -> float:
+    def _start_value(self, p: Parameter, doc: RigDoc | None = None) -> float:
+        doc = self.doc if doc is None else doc
         if self.pair is None:
-            return float(self.doc.light_view(p.light)[p.key])
-        r, l_ = (self.doc.light_view(i) for i in self.pair)
+            return float(doc.light_view(p.light)[p.key])
+        r, l_ = (doc.light_view(i) for i in self.pair)
         a_r = (r["arm_angle_deg"] + 180.0) % 360.0 - 180.0          # right arm: angle above horizontal
         a_l = (180.0 - l_["arm_angle_deg"] + 180.0) % 360.0 - 180.0  # left arm, mirrored
         return {"arm_length_m": 0.5 * (r["arm_length_m"] + l_["arm_length_m"]),
@@ -306,6 +307,19 @@ class Space:
             if not (out_x or out_y):
                 return f"{light.name} would be in the picture"
         return None
+
+    def describe_doc(self, doc: RigDoc) -> dict[str, float]:
+        """:meth:`describe` of a rig document's own placement (not clipped to the limits; a mirrored pair
+        that is not quite mirrored as the mean of the right light and the left one's mirror image; the beam
+        as the lights' mean beam angle)."""
+        out = {}
+        for p in self.parameters:
+            if p.options:
+                angles = [doc.light_view(i)["beam_angle_deg"] for i in range(len(doc.data["lights"]))]
+                out[p.label] = round(float(np.mean(angles)), 1)
+            else:
+                out[p.label] = round(self._start_value(p, doc), 3 if p.unit == "m" else 1)
+        return out
 
     def describe(self, x: np.ndarray) -> dict[str, float]:
         """Parameter label → value (the beam as its angle, deg)."""

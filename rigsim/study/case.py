@@ -10,21 +10,12 @@ import logging
 
 import numpy as np
 
+from rigsim.fileio import png_bytes
 from rigsim.study.spec import Case, StudySpec, sensor_key
 
 log = logging.getLogger(__name__)
 
 __all__ = ["compute_case", "compute_check", "case_scene", "case_engine", "STUDY_LAYERS"]
-
-
-def _png_bytes(rgb8: np.ndarray) -> bytes:
-    """PNG bytes of an 8-bit RGB image (zlib level 3: a photograph-sized image in ~0.1 s)."""
-    import cv2
-
-    ok, buf = cv2.imencode(".png", np.ascontiguousarray(rgb8[..., ::-1]), [cv2.IMWRITE_PNG_COMPRESSION, 3])
-    if not ok:
-        raise RuntimeError("PNG encoding failed")
-    return buf.tobytes()
 
 
 def case_scene(spec: StudySpec, case: Case):
@@ -132,7 +123,7 @@ def compute_case(spec: StudySpec, case: Case) -> dict:
         row.update(scene_metrics(si, target_kind, cap=cap, sensor=sensor, exposure=ex, masks=masks,
                                  radiance_metrics=False)[0])
         rows.append(row)
-        files[f"{skey}.png"] = _png_bytes(cap.srgb)
+        files[f"{skey}.png"] = png_bytes(cap.srgb)
         if cs.save_raw:
             files[f"{skey}.dng"] = _dng_bytes(cap)
     return {"rows": rows, "files": files, "meta": {"render_wall_time_s": si.meta.get("wall_time_s"),
@@ -189,7 +180,7 @@ def compute_check(spec: StudySpec, case: Case) -> dict:
 
     fast_rgb, shown = srgb_preview(fast)  # one exposure for both pictures: the fast image's
     mc_rgb, _ = srgb_preview(_mean_image(refs), scale=shown["xyz_scale"])
-    return {"record": record, "files": {"fast.png": _png_bytes(fast_rgb), "monte-carlo.png": _png_bytes(mc_rgb)}}
+    return {"record": record, "files": {"fast.png": png_bytes(fast_rgb), "monte-carlo.png": png_bytes(mc_rgb)}}
 
 
 def _mean_image(refs: list):
