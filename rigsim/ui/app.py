@@ -293,6 +293,7 @@ class RigDesigner:
             "preview_busy": True, "metric_rows": [], "metric_values": {}, "exposure_text": "",
             "render_quality_items": list(QUALITIES), "render_quality": list(QUALITIES)[1],
             "render_running": False, "render_progress": 0, "render_message": "",
+            "optimise_running": False, "optimise_progress": 0,
             "compare_mode": "waters", "compare_mode_items": [
                 {"title": "Waters (same rig, same distance)", "value": "waters"},
                 {"title": "Distances (same rig, same water)", "value": "distances"},
@@ -933,6 +934,63 @@ class RigDesigner:
             else:
                 s.render_message = "render finished for an older setup; discarded"
 
+    def optimise_rig(self):
+        """Search the placement of the current rig's lights for the current water, distance, sensor and
+        marine snow (:func:`rigsim.optimise.search.optimise`, the same search as ``rigsim optimise``); the
+        rig as it was is pinned as rig B, so the comparison panel shows before and after."""
+        if self.state.optimise_running:
+            return
+        asyncio.ensure_future(self._optimise())
+
+    async def _optimise(self):
+        from rigsim.optimise.objective import Setting
+        from rigsim.optimise.output import sentence
+        from rigsim.optimise.search import optimise
+
+        s = self.state
+        cond, doc = self.cond, self.doc
+        if cond.water_overrides:
+            self._say("Refused: the optimiser takes the water as named (switch the constituent overrides off)", "error")
+            return
+        loop = asyncio.get_running_loop()
+        with s:
+            s.optimise_running, s.optimise_progress = True, 0
+            self._say(f"optimising the placement of {doc.name}'s lights for {cond.water} at {cond.distance_m:g} m…")
+
+        def progress(frac, msg):
+            def show():
+                with self.state:
+                    self.state.optimise_progress = int(round(100 * frac))
+                    self._say(f"optimising: {msg} ({100 * frac:.0f}%)")
+            loop.call_soon_threadsafe(show)
+
+        try:
+            setting = Setting(water=cond.water, distance_m=cond.distance_m, sensor=cond.sensor, subject="colorchecker",
+                              subject_fill=cond.target_fill or 0.6, particles=cond.particles)
+            opt = await self._run(optimise, doc, setting, progress=progress)
+        except RigsimError as exc:
+            with s:
+                s.optimise_running = False
+                self._say(f"Refused: {exc}", "error")
+            return
+        except Exception as exc:
+            log.exception("optimisation failed")
+            with s:
+                s.optimise_running = False
+                self._say(f"optimisation failed: {type(exc).__name__}: {exc}", "error")
+            return
+        with s:
+            s.optimise_running = False
+            if self.doc is not doc or self.cond != cond:
+                self._say("the optimisation finished for an older setup; discarded (press Optimise again)", "warning")
+                return
+            if opt.best_doc is not doc:
+                self.pin_rig()
+                self._accept(opt.best_doc)
+                self._sync_rig_vars()
+                self.update_3d()
+            self._say(sentence(opt) + " The rig as it was is pinned as rig B; Save keeps the new one.", "success")
+
     def _progress(self, frac, msg):
         with self.state:
             self.state.render_progress = int(round(100 * frac))
@@ -969,6 +1027,7 @@ class RigDesigner:
         c.render_converged = self.render_converged
         c.view_behind = self.view_behind
         c.cancel_render = self.cancel_render
+        c.optimise_rig = self.optimise_rig
         c.compare_now = self.compare_now
         c.reset_camera = self.reset_camera
         c.on_server_ready.add(lambda **_: asyncio.ensure_future(self._worker()))

@@ -52,6 +52,12 @@ def build(app) -> None:
             v3.VBtn("Render", id="render-btn", click=(app.ctrl.render_converged, "[render_quality]"), color="primary",
                     variant="flat", prepend_icon="mdi-camera-iris", disabled=("render_running",))
             v3.VBtn("Cancel", click=app.ctrl.cancel_render, v_if="render_running", variant="text", classes="ml-1")
+            v3.VBtn("Optimise", id="optimise-btn", click=app.ctrl.optimise_rig, variant="outlined", classes="ml-2",
+                    prepend_icon="mdi-target", disabled=("optimise_running || render_running",),
+                    title="move the lights to where the predicted photograph is best for this water and distance "
+                          "(about a minute; the rig as it was is pinned as rig B)")
+            v3.VProgressLinear(v_if="optimise_running", model_value=("optimise_progress",), absolute=True,
+                               location="bottom", color="teal", height=4)
             v3.VProgressLinear(v_if="render_running", model_value=("render_progress",), absolute=True,
                                location="bottom", color="amber", height=4)
 

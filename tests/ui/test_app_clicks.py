@@ -213,3 +213,38 @@ def test_a_comparison_started_while_the_preview_is_computed_leaves_neither_busy(
     assert not preview_busy and not compare_busy
     assert shown_gen == gen  # the preview shown is the current edit's
     assert app.state.compare_cells and all(not c["error"] for c in app.state.compare_cells)
+
+
+def test_optimise_moves_the_lights_and_pins_the_rig_as_it_was(app, monkeypatch):
+    """The Optimise button runs the optimiser's own search (a small budget here) for the conditions on the
+    page; the optimised rig becomes the current one, the rig as it was is pinned as rig B for the
+    comparison, and the sentence of ``rigsim optimise`` is shown."""
+    import asyncio
+    import functools
+
+    import rigsim.optimise.search as search_mod
+
+    monkeypatch.setattr(search_mod, "optimise",
+                        functools.partial(search_mod.optimise, global_points=8, local_evaluations=12))
+    before = app.doc
+    asyncio.run(app._optimise())
+    assert not app.state.optimise_running
+    assert app.state.message_type == "success", app.state.message
+    assert app.state.message.startswith(f"For {app.cond.water} water, subject at {app.cond.distance_m:g} m")
+    assert app.doc is not before  # the default rig (45-wide in coastal water) gains from it
+    assert app.pinned is before and app.state.compare_rig_b == "@pinned"  # before/after side by side
+    assert app.doc.to_toml() != before.to_toml()
+    app.update_3d()
+    assert len(app.handles) == len(app.doc.light_names())
+
+
+def test_optimise_refuses_constituent_overrides(app):
+    import asyncio
+
+    from rigsim.ui.predict import Conditions
+
+    app.cond = Conditions(water="coastal", water_overrides=(("chl_mg_per_m3", 2.0),))
+    before = app.doc
+    asyncio.run(app._optimise())
+    assert app.state.message_type == "error" and "water as named" in app.state.message
+    assert app.doc is before and not app.state.optimise_running
