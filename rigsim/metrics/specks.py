@@ -15,6 +15,12 @@ front of the subject.  From a SpectralImage with the ``particles`` and ``particl
   a Monte Carlo ``particles`` layer is a difference of two renders whose noise a clip would bias.
 * ``speck_share_subject`` — the same over the subject's pixels only: how much of what the subject
   looks like is specks (negative where dark particles hide more of it than they add).
+* ``speck_light_share`` — the particles' light in the pixels where they add light (the positive part of
+  the ``particles`` layer) as a share of all the light in the image: the glitter of lit specks against
+  the water, what a diver means by "backscatter" in snowy water.  Unlike the count it hardly depends
+  on the image's size (a 45-wide twin-strobe rig in coastal water with coastal marine snow at 1.5 m,
+  fast engine: 0.27 %, 0.26 %, 0.28 % at 96, 192 and 960 px wide, against 11, 62 and more specks
+  counted); for Monte Carlo images it is biased upwards by the noise its clip keeps.
 
 The subject is the target (its pixels; :func:`subject_mask`); for a black disk — a test target that
 reflects nothing — and without a target in view, the image's median luminance stands for it.
@@ -83,6 +89,7 @@ def speck_numbers(luminance: np.ndarray, particles: np.ndarray, particle_id: np.
     total = float(lum.sum())
     return {"speck_count": int(np.unique(ids[shows]).size),
             "speck_share": float(lp.sum() / total) if total > 0 else 0.0,
+            "speck_light_share": float(np.clip(lp, 0.0, None).sum() / total) if total > 0 else 0.0,
             "speck_share_subject": (float(lp[mask].sum() / lum[mask].sum())
                                     if mask is not None and mask.any() and lum[mask].sum() > 0 else 0.0),
             "speck_threshold": float(threshold)}
@@ -93,7 +100,8 @@ def speck_metrics(si, subject_mask: np.ndarray | None = None, *, threshold: floa
     image and of its ``particles`` layer; zeros for an image without particles (no such layers)."""
     has = ("particles" in si.layers or "flash_particles" in si.layers) and "particle_id" in si.layers
     if not has:
-        return {"speck_count": 0, "speck_share": 0.0, "speck_share_subject": 0.0, "speck_threshold": float(threshold)}
+        return {"speck_count": 0, "speck_share": 0.0, "speck_share_subject": 0.0, "speck_light_share": 0.0,
+                "speck_threshold": float(threshold)}
     lum = photopic_luminance(si.radiant_exposure(1.0), si.wavelength_nm, si.bandwidth_nm)
     lp = photopic_luminance(si.radiant_exposure(1.0, "particles"), si.wavelength_nm, si.bandwidth_nm)
     return speck_numbers(lum, lp, si.layers["particle_id"], subject_mask, threshold=threshold)

@@ -24,15 +24,18 @@ measures (:mod:`rigsim.metrics`):
     EMVA 1288 SNR of the sensor at the white patch (or the subject) at the chosen exposure.
 ``delta_e_mean``
     Mean ΔE2000 of the chart patches after white balance (ColorChecker subjects).
+``speck_light``
+    Share of the image's light that lit marine-snow particles add (``speck_light_share`` of
+    :func:`rigsim.metrics.specks.speck_metrics`: nearly independent of the image's size).  Lower is better.
 ``speck_count``
-    Marine-snow specks the strobes make visible in the frame (:func:`rigsim.metrics.specks.speck_metrics`).
+    Marine-snow specks visible in the frame (ibid.; grows with the image's size, so reported, not weighted).
 ``contrast``
     Michelson contrast of the chart's white against its black patch in the radiance.
 ``iso``, ``flash_power``
     The auto exposure's ISO and the strobes' output as a fraction of full power.
 
 The score (:meth:`Weights.score`, lower is better) is
-``w_b · backscatter_share + w_e · evenness_cv + w_n · 10/snr_white + w_c · delta_e_mean/10 + w_s · speck_count/10``
+``w_b · backscatter_share + w_e · evenness_cv + w_n · 10/snr_white + w_c · delta_e_mean/10 + w_s · 100 speck_light``
 with :data:`DEFAULT_WEIGHTS` (each term is about 0.1–0.5 for a typical rig, so equal weights mean
 equal concern).
 """
@@ -48,11 +51,13 @@ from rigsim.errors import ConfigError
 from rigsim.scene.types import Rig
 
 __all__ = ["Setting", "Fidelity", "Weights", "Evaluation", "DEFAULT_WEIGHTS", "SEARCH", "REPORT", "FINAL",
-           "evaluate", "parse_weights", "METRICS", "scene_for"]
+           "evaluate", "parse_weights", "METRICS", "SUBJECTS", "scene_for"]
 
 #: Band centres (nm) of the optimiser's images: 20 nm bands over 400–700 nm, as the rig designer's.
 BANDS_NM = tuple(np.arange(410.0, 700.0, 20.0).tolist())
 
+#: Subjects the optimiser can image (the fast engine's targets with an even reflectance or a chart).
+SUBJECTS = ("colorchecker", "white-disk")
 #: Metric → (label, unit, which way is better); the order of tables.
 METRICS = {
     "backscatter_share": ("backscatter share", "%", "lower"),
@@ -60,6 +65,7 @@ METRICS = {
     "corner_ratio": ("corner / centre light", "", "higher"),
     "snr_white": ("SNR at the white patch", "", "higher"),
     "delta_e_mean": ("mean ΔE2000", "", "lower"),
+    "speck_light": ("light of lit specks", "%", "lower"),
     "speck_count": ("visible specks", "", "lower"),
     "contrast": ("white/black contrast", "", "higher"),
     "iso": ("ISO", "", "lower"),
@@ -80,7 +86,7 @@ class Setting:
     sensor
         Sensor name (``sensors/*.toml``) or path.
     subject
-        ``colorchecker`` or a mesh path (``.obj``/``.ply``).
+        ``colorchecker`` or ``white-disk`` (:data:`SUBJECTS`; meshes once the fast engine draws them).
     subject_fill
         The subject is scaled to this fraction of the frame's width in water (0–1.5), as a diver
         frames it.
@@ -99,6 +105,10 @@ class Setting:
         d = self.distance_m
         if isinstance(d, bool) or not isinstance(d, (int, float)) or not (math.isfinite(d) and d > 0):
             raise ConfigError(f"distance must be > 0 m, got {d!r}", field="distance_m", allowed="> 0 m")
+        if self.subject not in SUBJECTS:
+            why = ("the optimiser images with the fast engine, which does not draw meshes yet"
+                   if self.subject_kind == "mesh" else f"unknown subject {self.subject!r}")
+            raise ConfigError(why, field="subject", allowed=", ".join(SUBJECTS))
         f = self.subject_fill
         if isinstance(f, bool) or not isinstance(f, (int, float)) or not 0 < f <= 1.5:
             raise ConfigError(f"subject fill must be in (0, 1.5], got {f!r}", field="subject_fill",
@@ -163,7 +173,7 @@ class Weights:
             "evenness": self.evenness * m.get("evenness_cv", 0.0),
             "noise": self.noise * (10.0 / snr if snr and snr > 0 else 0.0),
             "colour": self.colour * m.get("delta_e_mean", 0.0) / 10.0,
-            "specks": self.specks * m.get("speck_count", 0.0) / 10.0,
+            "specks": self.specks * 100.0 * m.get("speck_light", 0.0),
         }
 
     def score(self, m: dict[str, float]) -> float:
@@ -292,7 +302,9 @@ def measure(si, setting: Setting, *, sensor=None, seed: int = 0) -> dict[str, fl
     if si.meta.get("particles"):
         from rigsim.metrics.specks import speck_metrics, subject_mask
 
-        out["speck_count"] = float(speck_metrics(si, subject_mask(masks, kind))["speck_count"])
+        sm = speck_metrics(si, subject_mask(masks, kind))
+        out["speck_count"] = float(sm["speck_count"])
+        out["speck_light"] = float(sm["speck_light_share"])
     sensor = load_sensor(setting.sensor) if sensor is None else sensor
     shot = photograph(si, sensor, exposure="auto", white_balance="auto", masks=masks, target_kind=kind, seed=seed)
     cm, _ = scene_metrics(si, kind, cap=shot.capture, sensor=sensor, exposure=shot.exposure, masks=masks,
@@ -300,6 +312,13 @@ def measure(si, setting: Setting, *, sensor=None, seed: int = 0) -> dict[str, fl
     for k in ("snr_white", "delta_e_mean"):
         if k in cm:
             out[k] = cm[k]
+    if kind != "colorchecker" and "signal" in masks:  # the subject's own SNR (scene_metrics takes a disk's ring)
+        from rigsim.sensor.noise import snr_emva1288
+        from rigsim.sensor.pipeline import mean_electrons_rgb
+
+        ex = shot.exposure
+        mu = float(mean_electrons_rgb(si, sensor, ex)[..., 1][masks["signal"]].mean())
+        out["snr_white"] = float(snr_emva1288(mu, sensor, iso=ex.iso, exposure_time_s=ex.exposure_time_s))
     out["iso"] = float(shot.exposure.iso)
     if "flash" in si.layers:
         out["flash_power"] = float(shot.exposure.flash_scale)

@@ -180,6 +180,8 @@ def _fmt_metric(key: str, v: float | None) -> str:
     if v is None or not math.isfinite(v):
         return "–"
     unit = METRICS[key][1]
+    if key == "speck_light":
+        return f"{100 * v:.2f} %"
     if unit == "%":
         return f"{100 * v:.1f} %"
     if key in ("snr_white", "iso", "speck_count"):
@@ -212,7 +214,14 @@ def _placement_words(opt: Optimum) -> str:
         if "beam angle" in d:
             parts.append(f"{d['beam angle']:g}° beams")
         return ", ".join(parts)
-    return "; ".join(f"{k} {v:g}" for k, v in d.items())
+    names = opt.best_doc.light_names()
+    out = []
+    for i, name in enumerate(names):
+        v = opt.best_doc.light_view(i)
+        out.append(f"{name} on a {v['arm_length_m']:.2f} m arm at {v['arm_angle_deg']:.0f}° "
+                   f"({v['arm_forward_m'] * 100:+.0f} cm along the lens), yaw {v['yaw_deg']:+.0f}°, "
+                   f"pitch {v['pitch_deg']:+.0f}°, {v['beam_angle_deg']:g}° beam")
+    return "; ".join(out)
 
 
 def sentence(opt: Optimum) -> str:
@@ -222,7 +231,7 @@ def sentence(opt: Optimum) -> str:
         return (f"For {opt.setting.label()}, keep the rig as it is: no placement within the limits scored better "
                 f"once measured with multiple scattering.")
     changes = []
-    for k in ("backscatter_share", "evenness_cv", "snr_white", "delta_e_mean", "speck_count"):
+    for k in ("backscatter_share", "evenness_cv", "snr_white", "delta_e_mean", "speck_light", "speck_count"):
         if k in s0 and k in s1:
             changes.append(f"{METRICS[k][0]} {_fmt_metric(k, s0[k])} → {_fmt_metric(k, s1[k])}")
     return (f"For {opt.setting.label()}: {_placement_words(opt)} — " + ", ".join(changes)
@@ -234,7 +243,7 @@ def sensitivity_sentence(s: Sensitivity) -> str:
     if s.infeasible:
         return f"{s.label} {s.change}: not usable ({s.infeasible})"
     bits = []
-    for k in ("backscatter_share", "corner_ratio", "evenness_cv", "snr_white", "delta_e_mean", "speck_count"):
+    for k in ("backscatter_share", "corner_ratio", "evenness_cv", "snr_white", "delta_e_mean", "speck_light"):
         v = s.metrics.get(k)
         if v is not None and math.isfinite(v) and abs(v) >= 0.005:
             bits.append(f"{METRICS[k][0]} {100 * v:+.0f} %")
@@ -409,4 +418,4 @@ def _page(opt: Optimum, words: str, sens: list[Sensitivity], ver: Verification |
 
 def _score_words(w: Weights) -> str:
     return (f"{w.backscatter:g} × backscatter share + {w.evenness:g} × unevenness (CV) + {w.noise:g} × 10/SNR + "
-            f"{w.colour:g} × ΔE2000/10 + {w.specks:g} × specks/10")
+            f"{w.colour:g} × ΔE2000/10 + {w.specks:g} × lit specks' light share (%)")

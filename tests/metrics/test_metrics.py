@@ -106,3 +106,22 @@ def test_visibility_range_edges():
 
 def test_black_disk_range():
     assert M.black_disk_range_ZaneveldPegau2003(0.4) == pytest.approx(12.0)
+
+
+def test_speck_numbers_count_and_light_share():
+    """Two lit particles against a uniform subject and one dark particle hiding part of it: the count
+    takes the particles at >= 5 % of the subject's luminance; the net share sums all three; the light
+    share only what the lit ones add."""
+    from rigsim.metrics.specks import speck_numbers
+
+    lum = np.ones((6, 6))
+    part = np.zeros((6, 6))
+    ids = np.zeros((6, 6), int)
+    part[1, 1], ids[1, 1] = 0.5, 1    # bright speck
+    part[2, 2], ids[2, 2] = 0.02, 2   # below the 5 % threshold
+    part[4, 4], ids[4, 4] = -0.3, 3   # a dark particle hiding the subject
+    total = (lum + part).sum()
+    m = speck_numbers(lum + part, part, ids)
+    assert m["speck_count"] == 1
+    assert m["speck_share"] == pytest.approx((0.5 + 0.02 - 0.3) / total)
+    assert m["speck_light_share"] == pytest.approx((0.5 + 0.02) / total)

@@ -67,7 +67,8 @@ def test_light_on_the_chart_follows_the_inverse_square_and_cosine_laws(distance_
 
 
 def test_weights_and_their_errors():
-    m = {"backscatter_share": 0.2, "evenness_cv": 0.1, "snr_white": 50.0, "delta_e_mean": 8.0, "speck_count": 5}
+    m = {"backscatter_share": 0.2, "evenness_cv": 0.1, "snr_white": 50.0, "delta_e_mean": 8.0, "speck_light": 0.005,
+         "speck_count": 40}
     terms = DEFAULT_WEIGHTS.terms(m)
     assert terms == pytest.approx({"backscatter": 0.2, "evenness": 0.1, "noise": 0.2, "colour": 0.4, "specks": 0.5})
     w = parse_weights("backscatter=2, evenness=0")
@@ -81,7 +82,8 @@ def test_weights_and_their_errors():
 
 
 @pytest.mark.parametrize("kw", [dict(distance_m=0), dict(distance_m=float("inf")), dict(distance_m="2"),
-                                dict(subject_fill=0), dict(subject_fill=2.0)])
+                                dict(subject_fill=0), dict(subject_fill=2.0), dict(subject="data/meshes/rock.obj"),
+                                dict(subject="bogus")])
 def test_bad_settings_are_refused(kw):
     with pytest.raises(ConfigError):
         Setting(**kw)
