@@ -30,6 +30,8 @@ def rigsim(*args, env=None, **kw):
     (["--log-level", "bogus", "water", "list"], "Invalid value for '--log-level'"),
     (["water", "nosuchcommand"], "No such command"),
     (["dataset", "datasets/underwater-training.toml"], "Missing option '--n'"),
+    (["optimise", RIG, "--distance", "1", "--out", "x"], "Missing option '--water'"),
+    (["optimise", RIG, "--water", "coastal", "--distance", "1", "--seed", "-1", "--out", "x"], "Invalid value for '--seed'"),
 ])
 def test_usage_errors_are_clicks_message_and_exit_2(argv, error):
     r = rigsim(*argv)

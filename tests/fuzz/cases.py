@@ -753,12 +753,14 @@ def command_skeletons(ws: Workspace | None = None) -> dict[str, list[str]]:
                     "--serial"],
         "app": ["app", "--port", "8765", "--host", "127.0.0.1", "--workdir", "@OUT"],
         "demo": ["demo", "--quick", "--serial", "--out", "@OUT/demo"],
+        "optimise": ["optimise", rig, "--water", "coastal", "--distance", "1.5", "--quick", "--no-check", "--out",
+                     "@OUT/o"],
         "root": ["--version"],
     }
 
 
 #: How often each command is drawn (the expensive ones less often).
-COMMAND_WEIGHTS = {"render mitsuba": 0, "dataset": 3, "study": 5, "demo": 2, "ambient mc": 5}
+COMMAND_WEIGHTS = {"render mitsuba": 0, "dataset": 3, "study": 5, "demo": 2, "ambient mc": 5, "optimise": 2}
 
 
 @dataclasses.dataclass

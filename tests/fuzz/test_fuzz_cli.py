@@ -14,7 +14,7 @@ from tests.fuzz.cases import (BUGS, HAZARDS, CliCase, _materialize, classify_cli
                               run_cli_case)
 from tests.fuzz.cases import BAD_MESSAGE, REFUSED, TRACEBACK
 
-CHEAP = tuple(n for n in command_skeletons() if n not in ("render mitsuba", "dataset", "demo", "ambient mc"))
+CHEAP = tuple(n for n in command_skeletons() if n not in ("render mitsuba", "dataset", "demo", "ambient mc", "optimise"))
 
 
 @settings(settings.get_profile("rigsim-fuzz"), max_examples=120)
@@ -28,6 +28,13 @@ def test_command_lines(case, ws):
 @given(case=cli_cases(("ambient mc", "demo")))
 def test_command_lines_of_long_commands(case, ws):
     res = run_cli_case(case, ws, timeout=90)
+    assert res.outcome not in BUGS, f"{res.outcome}: {res.detail}"
+
+
+@settings(settings.get_profile("rigsim-fuzz"), max_examples=6)
+@given(case=cli_cases(("optimise",)))
+def test_command_lines_of_the_optimiser(case, ws):
+    res = run_cli_case(case, ws, timeout=120)
     assert res.outcome not in BUGS, f"{res.outcome}: {res.detail}"
 
 
