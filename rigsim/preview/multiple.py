@@ -144,6 +144,17 @@ NEAR_ZONE_M = 1.0
 #: 0.2–0.5 m, with a coefficient of variation of 1 between seeds), while the light scattered there
 #: by more than 30° twice is smooth over decimetres.  Far away the blur is below a cell.
 KERNEL_M = 0.2
+#: The near zone's flights are drawn from two strategies, combined by the balance heuristic (Veach &
+#: Guibas 1995): uniform in the cone that holds the zone, and — with probability
+#: :data:`NEAR_AIM_FRACTION` — aimed at a point of a disc of radius :data:`NEAR_AIM_RADIUS_M` about the
+#: pupil, facing the vertex, at a distance ρ from the pupil uniform in [0, R] (a direction density
+#: ∝ 1/ρ).  A flight passing at h from the pupil gathers ∝ 1/h of veil (its equiangular integral):
+#: drawn uniformly, the few flights that pass close carried large weights — in an edge-lit Jerlov 3C
+#: scene at 1.5 m one flight in 40 000 held a tenth of the near zone's veil, and the chart's backscatter
+#: share was 0.226 ± 0.010 (s.d. over 8 seeds of 100 000 photons, up to 0.248); the second strategy
+#: draws them as often as they matter.
+NEAR_AIM_FRACTION = 0.5
+NEAR_AIM_RADIUS_M = 0.3
 
 
 @dataclass(frozen=True, eq=False)
@@ -663,13 +674,42 @@ def _splat_track(acc, who, ell, p, d, F, P, c, b, kappa_cam, K, rng, bid, li, to
                          b=b)
 
 
+def sample_disc_directions(x: np.ndarray, pupil: np.ndarray, axis: np.ndarray, radius_m: float, rng) -> np.ndarray:
+    """Unit directions from points ``x`` (n, 3) towards points of the disc of ``radius_m`` about ``pupil``
+    facing them (normal ``axis``, the unit vectors from ``x`` to the pupil), at a distance ρ from the
+    pupil uniform in [0, radius_m] and an azimuth uniform (:data:`NEAR_AIM_RADIUS_M`; density
+    :func:`disc_direction_pdf`)."""
+    helper = np.where(np.abs(axis[:, 0:1]) < 0.9, np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 1.0, 0.0]]))
+    e1 = np.cross(axis, helper)
+    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
+    e2 = np.cross(axis, e1)
+    rho, phi = radius_m * rng.random(len(x)), 2 * np.pi * rng.random(len(x))
+    v = pupil + rho[:, None] * (np.cos(phi)[:, None] * e1 + np.sin(phi)[:, None] * e2) - x
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def disc_direction_pdf(om: np.ndarray, D: np.ndarray, axis: np.ndarray, x: np.ndarray, pupil: np.ndarray,
+                       radius_m: float) -> np.ndarray:
+    """Solid-angle density (1/sr) of :func:`sample_disc_directions` for directions ``om`` from ``x`` (at
+    distance ``D`` from the pupil): where the ray crosses the disc's plane at t, ρ from the pupil,
+    ``t² / (cos γ · 2π ρ R)`` (γ its angle to the disc's normal; the area density of the point is
+    1/(2π ρ R)); 0 off the disc."""
+    cg = np.sum(om * axis, axis=1)
+    t = np.where(cg > 1e-9, D / np.maximum(cg, 1e-9), np.inf)
+    rho = np.linalg.norm(x + np.where(np.isfinite(t), t, 0.0)[:, None] * om - pupil, axis=1)
+    on = np.isfinite(t) & (rho < radius_m) & (D > radius_m)
+    return np.where(on, np.where(np.isfinite(t), t, 0.0) ** 2 /
+                    (np.maximum(cg, 1e-9) * 2 * np.pi * np.maximum(rho, 1e-12) * radius_m), 0.0)
+
+
 def _splat_near(acc, x, wgt_out, d_in, normal, n_sig, touched, c, b, kappa_cam, K, rng, who_b, who_l, surf, pupil, reach,
                 near_m, edges, cutoff_cos, dens_b, tables, omega, cam, width, height, cols, rows, n_out) -> int:
     """The class-B veil of the near zone (within ``near_m`` of the pupil, :data:`NEAR_ZONE_M`): from
     each scattering vertex (``d_in`` its photon's direction) or surface hit (``normal`` its lit side)
     at ``x`` with weight ``wgt_out`` (n, B), one flight aimed at the zone (a direction uniform in the
-    cone that holds it, or over the sphere from inside it), weighted by the phase function (or
-    ``cos/π`` of the diffuse surface) over that direction's density, and its veil inside the zone
+    cone that holds it, or over the sphere from inside it, or — :data:`NEAR_AIM_FRACTION` of them —
+    towards the disc about the pupil, :func:`sample_disc_directions`), weighted by the phase function (or
+    ``cos/π`` of the diffuse surface) over that direction's density in the mixture (balance heuristic), and its veil inside the zone
     integrated with exact transmittance ``e^{−c t}`` by equiangular points (the expectation over the
     photon's next direction and free flight of what its own flight would score there: next-event
     estimation of a flight, as photon beams gather a beam's light; Jarosz et al. 2011).  Flights
@@ -679,9 +719,19 @@ def _splat_near(acc, x, wgt_out, d_in, normal, n_sig, touched, c, b, kappa_cam, 
     axis = rel / np.maximum(D, 1e-12)[:, None]
     inside = D < near_m
     cos_a = np.where(inside, -1.0, np.sqrt(np.clip(1.0 - (near_m / np.maximum(D, 1e-12)) ** 2, 0.0, 1.0)))
-    mu = 1.0 - rng.random(len(x)) * (1.0 - cos_a)
-    om = _rotate(axis, mu, 2 * np.pi * rng.random(len(x)))
-    pdf = 1.0 / (2 * np.pi * (1.0 - cos_a))  # 1/sr
+    n = len(x)
+    mu = 1.0 - rng.random(n) * (1.0 - cos_a)
+    om = _rotate(axis, mu, 2 * np.pi * rng.random(n))
+    # the second strategy: towards a point of the disc about the pupil (NEAR_AIM_*), for the vertices
+    # outside it (from inside the disc's reach the sphere is sampled uniformly anyway)
+    r_aim = min(NEAR_AIM_RADIUS_M, near_m)
+    can_aim = D > r_aim
+    ia = np.flatnonzero(can_aim & (rng.random(n) < NEAR_AIM_FRACTION))
+    if ia.size:
+        om[ia] = sample_disc_directions(x[ia], pupil, axis[ia], r_aim, rng)
+    p_cone = np.where(np.sum(om * axis, axis=1) >= cos_a - 1e-12, 1.0 / (2 * np.pi * (1.0 - cos_a)), 0.0)  # 1/sr
+    p_disc = disc_direction_pdf(om, D, axis, x, pupil, r_aim)
+    pdf = np.where(can_aim, (1.0 - NEAR_AIM_FRACTION) * p_cone + NEAR_AIM_FRACTION * p_disc, p_cone)
     if d_in is not None:
         cos_s = np.sum(d_in * om, axis=1)
         f = np.take(dens_b, tables.grid.cell_index(cos_s), axis=0)  # (n, B) phase, 1/sr
