@@ -32,8 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rigsim.optimise.objective import FINAL, METRICS, REPORT, Evaluation, Setting, Weights, evaluate, measure, \
-    scene_for
+from rigsim.optimise.objective import FINAL, METRICS, REPORT, Weights, measure, photo, scene_for
 from rigsim.optimise.search import Evaluator, Optimum
 from rigsim.optimise.space import SENSITIVITY_STEPS
 
@@ -307,8 +306,7 @@ def write_optimum(opt: Optimum, out: str | Path, *, check: bool = True, photo_wi
     sens = sensitivities(opt)
     tick(0.3, "photographs")
     fid = Fidelity("final", int(photo_width))
-    _, _, before = evaluate(opt.start_doc.rig(), opt.setting, fid, seed=opt.seed, keep_image=True)
-    _, _, after = evaluate(opt.best_doc.rig(), opt.setting, fid, seed=opt.seed, keep_image=True)
+    before, after = (photo(d.rig(), opt.setting, fid, seed=opt.seed) for d in (opt.start_doc, opt.best_doc))
     ver = None
     if check:
         ver = verify(opt, progress=lambda f, m: tick(0.5 + 0.45 * f, m))
