@@ -248,3 +248,37 @@ def test_optimise_refuses_constituent_overrides(app):
     asyncio.run(app._optimise())
     assert app.state.message_type == "error" and "water as named" in app.state.message
     assert app.doc is before and not app.state.optimise_running
+
+
+def test_an_edit_during_the_optimisation_discards_its_result(app, monkeypatch):
+    """Optimise is pressed, then a strobe is edited before the search ends: the edit stands, the result
+    (for the rig as it was) is discarded with a message, and Optimise can be pressed again."""
+    import asyncio
+    import threading
+
+    import rigsim.optimise.search as search_mod
+
+    real = search_mod.optimise
+    started, release = threading.Event(), threading.Event()
+
+    def slow(*a, **kw):
+        started.set()
+        release.wait(30)
+        return real(*a, global_points=4, local_evaluations=4, **kw)
+
+    monkeypatch.setattr(search_mod, "optimise", slow)
+
+    async def go():
+        task = asyncio.ensure_future(app._optimise())
+        assert await asyncio.get_running_loop().run_in_executor(None, started.wait, 30)
+        assert app.state.optimise_running
+        app.optimise_rig()  # a second press while it runs does nothing
+        edited = app.doc.edit_light(0, "arm_length_m", 0.5)
+        app._accept(edited)
+        release.set()
+        await task
+        return edited
+
+    edited = asyncio.run(go())
+    assert app.doc is edited and not app.state.optimise_running
+    assert app.state.message_type == "warning" and "discarded" in app.state.message
