@@ -11,7 +11,7 @@ checked), so it is parallel on dask, shows progress and resumes: run it again wi
 
 Prints, per water: the worst deviation of each kind of region and per colour group, with its
 standard error and the tolerance (3 % clear water, 5 % elsewhere); then the worst cells overall
-and the count of cells beyond tolerance + 2 SE.  Everything is in ``<out>/*/agreement.csv``.
+and the count of cells beyond tolerance + the reference's 95 % half-width (Student's t · SE for the seeds).  Everything is in ``<out>/*/agreement.csv``.
 
     python benchmarks/bench_fast_engine_agreement.py                       # everything: hours on 2 cores
     python benchmarks/bench_fast_engine_agreement.py --quick               # 3 waters, 2 distances, 1 rig
@@ -172,7 +172,7 @@ def print_table(rows: list[dict]) -> None:
         print(f"\nreference noise (SE of the Monte Carlo mean, radiance cells): median {se[len(se) // 2]:.1%}, "
               f"90th percentile {se[int(0.9 * (len(se) - 1))]:.1%}")
     n_bad = sum(r["verdict"] == "disagrees" for r in rows)
-    print(f"cells beyond tolerance + 2 SE: {n_bad} of {len(rows)}")
+    print(f"cells beyond tolerance + t·SE (95 %, {rows[0].get('seeds')} seeds): {n_bad} of {len(rows)}")
 
 
 if __name__ == "__main__":

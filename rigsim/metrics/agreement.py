@@ -17,8 +17,11 @@ differently (the fast engine at its centre, Monte Carlo over it), so pixels on a
 tens of percent between them without either being wrong.
 
 Tolerances: 3 % in clear water, 5 % elsewhere (the fast engine's design targets); a cell is
-``agrees`` within its tolerance, ``within noise`` if the difference is inside the tolerance plus
-two standard errors of the reference, else ``disagrees``.
+``agrees`` within its tolerance, ``within noise`` if the difference is inside the tolerance plus the
+reference's 95 % confidence half-width — ``t · SE`` with Student's t for the number of renders less
+one (Student 1908: the spread of 4 renders estimates their standard error with 3 degrees of freedom,
+t = 3.18; "2 SE" is an 86 % interval for 4 renders: a fast value just at the tolerance was called a
+disagreement in one check in seven) — else ``disagrees``.
 """
 
 from __future__ import annotations
@@ -33,7 +36,7 @@ from rigsim.spectrum import colour_groups
 
 __all__ = ["RegionDeviation", "MetricDeviation", "CLEAR_WATERS", "MIN_CONTRAST", "PublishedAgreement",
            "published_agreement", "write_published", "PUBLISHED_TABLE", "tolerance_for", "comparison_regions",
-           "compare_renders", "verdict", "relative_se"]
+           "compare_renders", "verdict", "noise_multiplier", "relative_se"]
 
 #: Waters in which the fast engine should agree within 3 % (Jerlov's oceanic types I–III and the
 #: original write-up's clear waters); elsewhere 5 %.
@@ -51,13 +54,24 @@ def tolerance_for(water_name: str) -> float:
     return 0.03 if water_name in CLEAR_WATERS else 0.05
 
 
-def verdict(deviation: float, se: float, tolerance: float) -> str:
-    """``agrees`` (|deviation| <= tolerance), ``within noise`` (<= tolerance + 2 SE) or ``disagrees``."""
+def noise_multiplier(seeds: int | None) -> float:
+    """Half-width of the reference's 95 % confidence interval in standard errors: Student's t at 0.975 with
+    ``seeds − 1`` degrees of freedom (2 when the number of renders is unknown or below 2)."""
+    if seeds is None or not isinstance(seeds, (int, float)) or seeds < 2:
+        return 2.0
+    from scipy.stats import t
+
+    return float(t.ppf(0.975, int(seeds) - 1))
+
+
+def verdict(deviation: float, se: float, tolerance: float, seeds: int | None = None) -> str:
+    """``agrees`` (|deviation| <= tolerance), ``within noise`` (<= tolerance + t·SE, :func:`noise_multiplier`
+    of ``seeds``) or ``disagrees``."""
     if not math.isfinite(deviation):
         return "no reference"
     if abs(deviation) <= tolerance:
         return "agrees"
-    if math.isfinite(se) and abs(deviation) <= tolerance + 2 * se:
+    if math.isfinite(se) and abs(deviation) <= tolerance + noise_multiplier(seeds) * se:
         return "within noise"
     return "disagrees"
 
@@ -207,7 +221,7 @@ class PublishedAgreement:
     ``worst_deviation`` is the largest fast / Monte Carlo − 1 over the water's checked regions and
     colour groups (``worst_where`` says which), ± ``worst_se``; ``cases`` checked cases at
     ``distances_m``; ``beyond`` of ``cells`` region values differed by more than the tolerance plus
-    two standard errors.
+    the reference's confidence half-width (:func:`verdict`).
     """
 
     lighting: str

@@ -419,6 +419,8 @@ def trust_sentences(agreement: list[dict], render: dict) -> list[str]:
 def trust_section(d: Path, agreement: list[dict], spec: dict) -> list[str]:
     """"How far to trust these numbers": per water, the worst deviation of each kind of region and
     metric, and the checked cases' pictures side by side."""
+    from rigsim.metrics.agreement import noise_multiplier
+
     if not agreement:
         return []
     waters = list(dict.fromkeys(r["water"] for r in agreement))
@@ -448,8 +450,9 @@ def trust_section(d: Path, agreement: list[dict], spec: dict) -> list[str]:
            f"{int(first['width'])}×{int(first['height'])} pixels).  Each cell is the largest difference, fast / Monte "
            f"Carlo − 1, over the checked cases' regions (each chart patch, the disk, the open water away from the "
            f"target; edge pixels left out) and colour groups (blue &lt; 490 nm, green 490–580, red ≥ 580), ± the "
-           f"Monte Carlo reference's standard error; green: within the tolerance, yellow: within it plus two "
-           f"standard errors, red: beyond.  Contrast and backscatter share are the scene metrics of the tables "
+           f"Monte Carlo reference's standard error; green: within the tolerance, yellow: within it plus the "
+           f"reference's 95 % confidence half-width ({noise_multiplier(int(first['seeds'])):.2f} standard errors: "
+           f"Student's t for {int(first['seeds'])} renders), red: beyond.  Contrast and backscatter share are the scene metrics of the tables "
            f"above.  Every value is in agreement.csv.</p>"
            f"<table class='data'>{head}{''.join(trs)}</table>"]
     pics = []

@@ -254,12 +254,12 @@ def agreement_rows(checks: list[dict]) -> list[dict]:
                          "pixels": r["pixels"], "fast": r["fast"], "monte_carlo": r["reference"],
                          "monte_carlo_se": r["reference_se"], "deviation": r["deviation"],
                          "deviation_se": r["deviation_se"],
-                         "verdict": verdict(r["deviation"], r["deviation_se"], rec["tolerance"])})
+                         "verdict": verdict(r["deviation"], r["deviation_se"], rec["tolerance"], rec.get("seeds"))})
         for m in rec["metrics"]:
             rows.append({**base, "quantity": m["metric"], "region": "target", "group": "luminance", "pixels": None,
                          "fast": m["fast"], "monte_carlo": m["reference"], "monte_carlo_se": m["reference_se"],
                          "deviation": m["deviation"], "deviation_se": m["deviation_se"],
-                         "verdict": verdict(m["deviation"], m["deviation_se"], rec["tolerance"])})
+                         "verdict": verdict(m["deviation"], m["deviation_se"], rec["tolerance"], rec.get("seeds"))})
     return rows
 
 

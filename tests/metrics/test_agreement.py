@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
 from rigsim.metrics.agreement import MetricDeviation, RegionDeviation, verdict
 
@@ -31,3 +32,17 @@ def test_a_clear_difference_still_disagrees_and_a_small_one_agrees():
     noisy = RegionDeviation("patch:white", "red", 9, fast=0.92, reference=1.0, reference_se=0.02)
     assert _verdict(noisy) == "within noise"  # −8 % ≤ 5 % + 2 × 2 %
     assert verdict(float("nan"), 0.1, 0.05) == "no reference"
+
+
+def test_within_noise_is_the_95_percent_interval_of_the_seeds():
+    """With the spread of n renders as the reference's standard error, "within noise" is the tolerance plus
+    Student's t(0.975, n − 1) standard errors (3.18 for 4 renders, 2.36 for 8; 2 if n is unknown)."""
+    from rigsim.metrics.agreement import noise_multiplier
+
+    assert noise_multiplier(4) == pytest.approx(3.182, abs=1e-3)
+    assert noise_multiplier(8) == pytest.approx(2.365, abs=1e-3)
+    assert noise_multiplier(None) == 2.0 and noise_multiplier(1) == 2.0
+    # −12 % ± 2.5 %: beyond 5 % + 2 SE, inside 5 % + 3.18 SE (4 renders), beyond 5 % + 2.36 SE (8 renders)
+    assert verdict(-0.12, 0.025, 0.05) == "disagrees"
+    assert verdict(-0.12, 0.025, 0.05, seeds=4) == "within noise"
+    assert verdict(-0.12, 0.025, 0.05, seeds=8) == "disagrees"
