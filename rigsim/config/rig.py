@@ -20,7 +20,7 @@ The conventions, and their inverses (for editors such as :mod:`rigsim.config.rig
 
 * arm: :func:`arm_to_position` / :func:`position_to_arm`;
 * yaw and pitch: :func:`yaw_pitch_to_direction` / :func:`direction_to_yaw_pitch`;
-* camera frame → world: :func:`camera_to_world`.
+* camera frame → world: :func:`camera_to_world` / :func:`world_to_camera`.
 
 Examples
 --------
@@ -62,7 +62,7 @@ from rigsim.scene.types import BeamPattern, Camera, Light, Port, Rig
 
 __all__ = ["load_rig", "parse_rig", "RigFile", "RigTable", "LimitsTable", "CameraTable", "PortTable", "LightTable",
            "SPECTRUM_NAMES", "DEFAULT_SPECTRUM", "arm_to_position", "position_to_arm", "yaw_pitch_to_direction",
-           "direction_to_yaw_pitch", "camera_to_world"]
+           "direction_to_yaw_pitch", "camera_to_world", "world_to_camera"]
 
 #: Named spectra a light may use (``blackbody:T`` and CSV files are accepted too).
 SPECTRUM_NAMES: tuple[str, ...] = tuple(SPECTRUM_METHODS)
@@ -133,6 +133,38 @@ def camera_to_world(camera: Camera, local, *, direction: bool = False) -> np.nda
     v = np.asarray(local, float)
     w = v[0] * r + v[1] * u + v[2] * f
     return w if direction else np.asarray(camera.position_m, float) + w
+
+
+def world_to_camera(camera: Camera, world, *, direction: bool = False) -> np.ndarray:
+    """World points (m) — or directions — in the camera frame ``[right, up, forward]``.
+
+    Parameters
+    ----------
+    camera
+        The camera; its frame is :meth:`~rigsim.scene.types.Camera.frame`, its origin the
+        entrance pupil ``camera.position_m``.
+    world
+        Array of shape ``(..., 3)``: points (m) or, with ``direction=True``, directions.
+    direction
+        Directions are turned but not moved.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape ``(..., 3)``: ``[(p − pupil)·right, (p − pupil)·up, (p − pupil)·forward]`` (m), the
+        inverse of :func:`camera_to_world`.
+
+    Examples
+    --------
+    >>> cam = Camera()  # looks along +z with +y up: the image's right is −x
+    >>> world_to_camera(cam, [-1.0, 2.0, 3.0]).tolist()
+    [1.0, 2.0, 3.0]
+    """
+    r, u, f = camera.frame()
+    w = np.asarray(world, float)
+    if not direction:
+        w = w - np.asarray(camera.position_m, float)
+    return np.stack([w @ r, w @ u, w @ f], axis=-1)
 
 
 # ---------------------------------------------------------------------------- the file schema

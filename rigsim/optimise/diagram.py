@@ -35,7 +35,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from rigsim.config.rig import direction_to_yaw_pitch, position_to_arm
+from rigsim.config.rig import direction_to_yaw_pitch, position_to_arm, world_to_camera
 from rigsim.fileio import atomic_write_bytes
 from rigsim.scene.optics import WATER_INDEX, camera_rays, fov_water_deg
 from rigsim.scene.types import BeamPattern, Camera, Rig
@@ -96,38 +96,6 @@ class LightGeometry:
     yaw_deg: float
     pitch_deg: float
     beam_angle_deg: float
-
-
-def to_camera_frame(camera: Camera, world, *, direction: bool = False) -> np.ndarray:
-    """World points (m) — or directions — in the camera frame ``[right, up, forward]``.
-
-    Parameters
-    ----------
-    camera
-        The camera; its frame is :meth:`~rigsim.scene.types.Camera.frame`, its origin the
-        entrance pupil ``camera.position_m``.
-    world
-        Array of shape ``(..., 3)``: points (m) or, with ``direction=True``, directions.
-    direction
-        Directions are turned but not moved.
-
-    Returns
-    -------
-    numpy.ndarray
-        Shape ``(..., 3)``: ``[(p − pupil)·right, (p − pupil)·up, (p − pupil)·forward]`` (m), the
-        inverse of :func:`rigsim.config.rig.camera_to_world`.
-
-    Examples
-    --------
-    >>> cam = Camera()  # looks along +z with +y up: the image's right is −x
-    >>> to_camera_frame(cam, [-1.0, 2.0, 3.0]).tolist()
-    [1.0, 2.0, 3.0]
-    """
-    r, u, f = camera.frame()
-    w = np.asarray(world, float)
-    if not direction:
-        w = w - np.asarray(camera.position_m, float)
-    return np.stack([w @ r, w @ u, w @ f], axis=-1)
 
 
 def beam_angle_half_intensity_deg(beam: BeamPattern) -> float:
@@ -216,8 +184,8 @@ def camera_frame_geometry(rig: Rig) -> tuple[LightGeometry, ...]:
     """
     out = []
     for light in rig.lights:
-        p = to_camera_frame(rig.camera, light.position_m)
-        a = to_camera_frame(rig.camera, light.aim, direction=True)
+        p = world_to_camera(rig.camera, light.position_m)
+        a = world_to_camera(rig.camera, light.aim, direction=True)
         a = a / np.linalg.norm(a)
         length, angle, forward = position_to_arm(p)
         yaw, pitch = direction_to_yaw_pitch(a)
@@ -252,14 +220,14 @@ def _layout(rig: Rig, distance_m: float, subject_width_m: float | None) -> _Layo
     cam = rig.camera
     # Horizontal edges of the field (middle row), then the film's border, traced out of the port.
     o, d = camera_rays(cam, np.array([0.0, 1.0]), np.array([0.5, 0.5]), n_outside=WATER_INDEX)
-    o, d = to_camera_frame(cam, o), to_camera_frame(cam, d, direction=True)
+    o, d = world_to_camera(cam, o), world_to_camera(cam, d, direction=True)
     far = _to_plane(o, d, distance_m)
     wedge = np.array([o[0, [0, 2]], far[0, [0, 2]], far[1, [0, 2]], o[1, [0, 2]]])
     s = np.linspace(0.0, 1.0, _N_EDGE)
     px = np.concatenate([s, np.ones_like(s), s[::-1], np.zeros_like(s)])
     py = np.concatenate([np.zeros_like(s), s, np.ones_like(s), s[::-1]])
     ob, db = camera_rays(cam, px, py, n_outside=WATER_INDEX)
-    border = _to_plane(to_camera_frame(cam, ob), to_camera_frame(cam, db, direction=True), distance_m)
+    border = _to_plane(world_to_camera(cam, ob), world_to_camera(cam, db, direction=True), distance_m)
     half = 0.5 * subject_width_m if subject_width_m is not None else 0.5 * abs(far[1, 0] - far[0, 0])
     return _Layout(lights=camera_frame_geometry(rig), camera=cam, fov_deg=fov_water_xy_deg(cam), wedge=wedge,
                    outline=border[:, :2], subject_half_width_m=half)

@@ -34,7 +34,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from rigsim.config.rig import LimitsTable
+from rigsim.config.rig import LimitsTable, world_to_camera
 from rigsim.config.rigdoc import RigDoc
 from rigsim.errors import ConfigError
 from rigsim.schema import validate
@@ -295,10 +295,8 @@ class Space:
         cam = rig.camera
         half_w = math.radians(fov_water_deg(cam)) / 2
         half_h = math.atan(math.tan(half_w) * cam.sensor_height_mm / cam.sensor_width_mm)
-        right, up, fwd = cam.frame()
         for light in rig.lights:
-            p = np.asarray(light.position_m, float) - np.asarray(cam.position_m, float)
-            x, y, z = float(p @ right), float(p @ up), float(p @ fwd)
+            x, y, z = (float(v) for v in world_to_camera(cam, light.position_m))
             if z <= 0:
                 continue
             # outside the view if beyond the frustum's side by more than the head's radius

@@ -11,7 +11,7 @@ import matplotlib.image as mpimg
 import numpy as np
 import pytest
 
-from rigsim.config.rig import load_rig, parse_rig
+from rigsim.config.rig import load_rig, parse_rig, world_to_camera
 from rigsim.optimise.diagram import (
     REAR_VIEW,
     TOP_VIEW,
@@ -20,7 +20,6 @@ from rigsim.optimise.diagram import (
     draw_rig_diagram,
     fov_water_xy_deg,
     rig_diagram,
-    to_camera_frame,
 )
 from rigsim.schema import read_toml
 from rigsim.scene.optics import fov_water_deg
@@ -71,8 +70,8 @@ def test_to_camera_frame_inverts_the_pose():
     cam = Camera(position_m=(1.0, 2.0, 3.0), forward=(0.0, 0.0, -1.0), up=(0.0, 1.0, 0.0))
     r, u, f = cam.frame()
     p = np.array([1.0, 2.0, 3.0]) + 0.3 * r - 0.2 * u + 0.7 * f
-    assert to_camera_frame(cam, p) == pytest.approx([0.3, -0.2, 0.7])
-    assert to_camera_frame(cam, [f, r], direction=True) == pytest.approx(np.array([[0, 0, 1], [1, 0, 0]]))
+    assert world_to_camera(cam, p) == pytest.approx([0.3, -0.2, 0.7])
+    assert world_to_camera(cam, [f, r], direction=True) == pytest.approx(np.array([[0, 0, 1], [1, 0, 0]]))
 
 
 def test_beam_angle_at_half_intensity():
