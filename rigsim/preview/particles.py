@@ -40,6 +40,9 @@ coverage, and ``particle_id`` — the instance mask of the ground truth
 
 from __future__ import annotations
 
+import hashlib
+import threading
+from collections import OrderedDict
 from dataclasses import dataclass
 
 import numpy as np
@@ -54,6 +57,48 @@ from rigsim.water.particles import lambert_sphere_phase
 __all__ = ["ParticleLayers", "particle_layers"]
 #: Film grid (per side) on which the diffuse daylight's phase integral is tabulated.
 _DAY_GRID = 9
+#: Images whose particle geometry (footprints, their samples, the particle-id image) is kept: it depends
+#: on the camera, the particles and the targets' ranges but not on the lights, so a search that moves
+#: only the lights (:mod:`rigsim.optimise`, the rig designer) computes it once (0.3 of 0.65 s per
+#: 96×64 image of coastal marine snow).
+_GEOMETRY_CACHE_SIZE = 2
+_GEOMETRY: OrderedDict = OrderedDict()
+_GEOMETRY_LOCK = threading.Lock()
+
+
+@dataclass(frozen=True, eq=False)
+class _Geometry:
+    fp: object
+    samples: tuple
+    particle_id: np.ndarray
+
+
+def _digest(*arrays) -> bytes:
+    h = hashlib.blake2b(digest_size=16)
+    for a in arrays:
+        a = np.ascontiguousarray(a)
+        h.update(str((a.dtype, a.shape)).encode())
+        h.update(a.tobytes())
+    return h.digest()
+
+
+def _geometry(scene: Scene, ps: ParticleSet, width: int, height: int, range_m: np.ndarray) -> _Geometry:
+    """The lights-independent geometry of the particles' image (cached, :data:`_GEOMETRY_CACHE_SIZE`)."""
+    key = (scene.camera, int(width), int(height),
+           _digest(np.asarray(ps.position_m, float), np.asarray(ps.diameter_m, float), np.asarray(range_m)))
+    with _GEOMETRY_LOCK:
+        hit = _GEOMETRY.get(key)
+        if hit is not None:
+            _GEOMETRY.move_to_end(key)
+            return hit
+    fp = particle_footprints(scene, ps, width, height)
+    geo = _Geometry(fp=fp, samples=tuple(footprint_samples(fp, width, height, range_m)),
+                    particle_id=particle_id_image(scene, ps, width, height, range_m))
+    with _GEOMETRY_LOCK:
+        _GEOMETRY[key] = geo
+        while len(_GEOMETRY) > _GEOMETRY_CACHE_SIZE:
+            _GEOMETRY.popitem(last=False)
+    return geo
 
 
 @dataclass(frozen=True, eq=False)
@@ -162,7 +207,8 @@ def particle_layers(scene: Scene, ps: ParticleSet, *, width: int, height: int, w
     B = len(wl)
     shape = (height, width, B)
     cam = scene.camera
-    fp = particle_footprints(scene, ps, width, height)
+    pg = _geometry(scene, ps, width, height, range_m)
+    fp = pg.fp
     P = np.asarray(ps.position_m, float)
     D = np.asarray(ps.diameter_m, float)
     rng, to_cam = fp.range_m, fp.to_camera
@@ -221,7 +267,7 @@ def particle_layers(scene: Scene, ps: ParticleSet, *, width: int, height: int, w
     cover = np.zeros(height * width)
     hid_pix, hid_r, hid_w = [], [], []
     seen = np.zeros(len(P), bool)
-    for who, pix, share in footprint_samples(fp, width, height, range_m):
+    for who, pix, share in pg.samples:
         seen[who] = True
         w = share / solid[pix]  # radiance per unit irradiance at the pupil
         bins = (pix[:, None] * B + np.arange(B)).ravel()
@@ -239,4 +285,4 @@ def particle_layers(scene: Scene, ps: ParticleSet, *, width: int, height: int, w
                           flash=out["strobe"].reshape(shape).astype(np.float32),
                           coverage=np.clip(cover, 0.0, 1.0).reshape(height, width).astype(np.float32),
                           hiders=tuple(np.concatenate(x) if x else np.zeros(0) for x in (hid_pix, hid_r, hid_w)),
-                          particle_id=particle_id_image(scene, ps, width, height, range_m), visible=int(seen.sum()))
+                          particle_id=pg.particle_id.copy(), visible=int(seen.sum()))
