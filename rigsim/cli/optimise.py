@@ -28,7 +28,7 @@ def _list(text: str, what: str, number: bool = False) -> list:
 
 @app.command("optimise")
 def optimise_cmd(
-    rig: Path = typer.Argument(..., help="Rig TOML file (see rigs/); its [limits] table bounds the search."),
+    rig: Path = typer.Argument(..., help="Rig TOML file (see rigs/); its \\[limits] table bounds the search."),
     water: str = typer.Option(..., "--water", help="Water preset or TOML file; a comma-separated list sweeps."),
     distance: str = typer.Option(..., "--distance", help="Subject distance, m; a comma-separated list sweeps."),
     sensor: str = typer.Option("sony_ilce-7rm2", "--sensor", help="Sensor name (sensors/) or TOML file."),

@@ -5,7 +5,8 @@ keeps each result as ``cell-<water>-<distance>m.json`` in the output folder the 
 (atomically), so an interrupted sweep resumes where it stopped; :func:`write_sweep` writes
 ``sweep.csv``, ``sweep.png`` (arm length, outward turn and score gain versus distance, one line per
 water), an optimised rig file per cell and ``sweep.html`` with one sentence per water:
-"for 0.5–3 m in coastal water the arms should be 0.55–0.70 m at 20–35° outward".
+"For 1–2 m in coastal water the arms should be 0.41–0.80 m long, turned 52–57° outward (arms 9–25° above the
+horizontal, 18–22 cm behind the lens, 110° beams)".
 """
 
 from __future__ import annotations
@@ -77,6 +78,17 @@ def _span(values: list[float], fmt: str) -> str:
         else f"{fmt.format(lo)}–{fmt.format(hi)}"
 
 
+def _signed_span(values: list[float], fmt: str, unit: str, pos: str, neg: str, ref: str) -> str:
+    """A span of signed values in words: "10–20 cm behind the lens", "from 5° inward to 30° outward"."""
+    lo, hi = min(values), max(values)
+    tail = f" {ref}" if ref else ""
+    if lo >= 0 or hi <= 0:
+        word = pos if lo >= 0 else neg
+        a, b = sorted((abs(lo), abs(hi)))
+        return f"{_span([a, b], fmt)}{unit} {word}{tail}"
+    return f"from {fmt.format(-lo)}{unit} {neg} to {fmt.format(hi)}{unit} {pos}{tail}"
+
+
 def water_sentence(rows: list[dict]) -> str:
     """One sentence for the cells of one water (a mirrored pair's arms, angles and beams)."""
     rows = sorted(rows, key=lambda r: r["distance_m"])
@@ -85,15 +97,16 @@ def water_sentence(rows: list[dict]) -> str:
     p = [r["best_placement"] for r in rows]
     if "arm length" in p[0] and "turned outward" in p[0]:
         arms = _span([x["arm length"] for x in p], "{:.2f}")
-        elev = _span([x["arm elevation"] for x in p], "{:.0f}")
-        out_ = _span([x["turned outward"] for x in p], "{:.0f}")
-        fwd = _span([100 * x["forward offset"] for x in p], "{:.0f}")
+        elev = _signed_span([x["arm elevation"] for x in p], "{:.0f}", "°", "above", "below", "the horizontal")
+        out_ = _signed_span([x["turned outward"] for x in p], "{:.0f}", "°", "outward", "inward", "")
+        fwd = _signed_span([100 * x["forward offset"] for x in p], "{:.0f}", " cm", "ahead of", "behind",
+                           "the lens")
         beams = sorted({x["beam angle"] for x in p if "beam angle" in x})
         beam = f", {'/'.join(f'{b:g}' for b in beams)}° beams" if beams else ""
         gain = _span([100 * r["improvement"] for r in rows if r.get("improvement") is not None and
                       math.isfinite(r["improvement"])] or [0.0], "{:.0f}")
-        return (f"For {dist} in {water} water the arms should be {arms} m at {out_}° outward "
-                f"(arm {elev}° from the horizontal, {fwd} cm forward{beam}); {gain} % better than the rig as it was.")
+        return (f"For {dist} in {water} water the arms should be {arms} m long, turned {out_} "
+                f"(arms {elev}, {fwd}{beam}); {gain} % better than the rig as it was.")
     return f"For {dist} in {water} water: " + "; ".join(
         f"{r['distance_m']:g} m: " + ", ".join(f"{k} {v}" for k, v in r["best_placement"].items()) for r in rows)
 
