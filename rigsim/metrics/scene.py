@@ -15,7 +15,7 @@ Metrics (keys of :func:`scene_metrics`):
     The same contrast from the developed image (linear sRGB luminance) of a sensor.
 ``snr_white``
     Temporal SNR of the sensor (EMVA 1288 model, green channel) at the mean signal of the
-    white patch (chart), the water around the disk, or the white half — the sensor's noise,
+    white patch (chart), the white disk, the water around a black disk, or the white half — the sensor's noise,
     not the Monte Carlo noise of the render.
 ``snr_white_image``
     Mean/σ of the developed luminance over the same pixels (includes render noise and any
@@ -159,7 +159,8 @@ def scene_metrics(si, target_kind: str, *, cap=None, sensor=None, exposure=None,
         if "signal" in masks and "reference" in masks:
             out["contrast_image"] = float(contrast_michelson(y[masks["signal"]].mean(),
                                                              y[masks["reference"]].mean()))
-            region = masks["signal"] if target_kind in ("colorchecker", "slanted-edge") else masks["reference"]
+            # the white patch, the white half, the white disk; for a black disk the water around it
+            region = masks["reference"] if target_kind == "black-disk" else masks["signal"]
             if region.sum() >= 4:
                 out["snr_white_image"] = float(patch_snr(y, region))
                 if sensor is not None and exposure is not None:

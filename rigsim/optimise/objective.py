@@ -232,11 +232,11 @@ def scene_for(rig: Rig, setting: Setting, water=None):
     """The scene of ``setting`` with ``rig`` (``water``: an already loaded :class:`~rigsim.water.Water`)."""
     from rigsim.config.water import load_water
     from rigsim.scene.build import build_scene
-    from rigsim.scene.optics import fov_water_deg
+    from rigsim.scene.optics import field_width_m
 
     if water is None:
         water = load_water(setting.water, particles=None if setting.particles in ("", None) else setting.particles)
-    size = setting.subject_fill * 2 * setting.distance_m * math.tan(math.radians(fov_water_deg(rig.camera)) / 2)
+    size = setting.subject_fill * field_width_m(rig.camera, setting.distance_m)
     return build_scene(rig, water, setting.subject, setting.distance_m, size_m=size)
 
 
@@ -313,13 +313,6 @@ def measure(si, setting: Setting, *, sensor=None, seed: int = 0) -> dict[str, fl
     for k in ("snr_white", "delta_e_mean"):
         if k in cm:
             out[k] = cm[k]
-    if kind != "colorchecker" and "signal" in masks:  # the subject's own SNR (scene_metrics takes a disk's ring)
-        from rigsim.sensor.noise import snr_emva1288
-        from rigsim.sensor.pipeline import mean_electrons_rgb
-
-        ex = shot.exposure
-        mu = float(mean_electrons_rgb(si, sensor, ex)[..., 1][masks["signal"]].mean())
-        out["snr_white"] = float(snr_emva1288(mu, sensor, iso=ex.iso, exposure_time_s=ex.exposure_time_s))
     out["iso"] = float(shot.exposure.iso)
     if "flash" in si.layers:
         out["flash_power"] = float(shot.exposure.flash_scale)

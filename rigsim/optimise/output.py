@@ -321,9 +321,9 @@ def write_optimum(opt: Optimum, out: str | Path, *, check: bool = True, photo_wi
     with staged_output(out) as stage:
         (stage / f"{name}.toml").write_text(opt.best_doc.relocated(out.resolve(), f"{name}.toml").to_toml(header=header))
         cam = opt.best_doc.rig().camera
-        from rigsim.scene.optics import fov_water_deg
+        from rigsim.scene.optics import field_width_m
 
-        width_m = opt.setting.subject_fill * 2 * opt.setting.distance_m * math.tan(math.radians(fov_water_deg(cam)) / 2)
+        width_m = opt.setting.subject_fill * field_width_m(cam, opt.setting.distance_m)
         rig_diagram(opt.best_doc.rig(), opt.start_doc.rig(), distance_m=opt.setting.distance_m,
                     subject_width_m=width_m, out_png=stage / "diagram.png",
                     title=f"{opt.start_doc.name}: optimised for {opt.setting.label()}")

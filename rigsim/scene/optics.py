@@ -55,6 +55,8 @@ Born, M. & Wolf, E. (1999). *Principles of Optics*, 7th ed., §1.5 (Fresnel).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from rigsim.errors import ConfigError
@@ -65,6 +67,7 @@ __all__ = [
     "WATER_INDEX",
     "outside_index",
     "tan_half_fov",
+    "field_width_m",
     "air_directions",
     "camera_rays",
     "pixel_rays",
@@ -280,6 +283,12 @@ def fov_water_deg(camera: Camera, n_outside: float = WATER_INDEX) -> float:
     """Horizontal field of view outside the port (deg): unchanged by a dome, Snell-narrowed by a flat port."""
     _, d = camera_rays(camera, np.array([0.0, 1.0]), np.array([0.5, 0.5]), n_outside=n_outside)
     return float(np.degrees(np.arccos(np.clip(d[0] @ d[1], -1.0, 1.0))))
+
+
+def field_width_m(camera: Camera, distance_m: float, n_outside: float = WATER_INDEX) -> float:
+    """Width of the field of view (m) on a plane ``distance_m`` ahead of the entrance pupil, square to the
+    lens axis: ``2 d tan(fov/2)`` with the horizontal field of view outside the port (:func:`fov_water_deg`)."""
+    return float(2.0 * distance_m * math.tan(math.radians(fov_water_deg(camera, n_outside)) / 2.0))
 
 
 def angular_pitch_rad(camera: Camera, width: int, height: int, *, n_outside: float) -> tuple[float, float]:

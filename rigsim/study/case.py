@@ -29,9 +29,9 @@ def case_scene(spec: StudySpec, case: Case):
     target_kind = case.target if not case.target.lower().endswith((".obj", ".ply")) else "mesh"
     size_m = None
     if case.target_fill is not None:
-        from rigsim.scene.optics import fov_water_deg
+        from rigsim.scene.optics import field_width_m
 
-        size_m = case.target_fill * 2 * case.distance_m * np.tan(np.radians(fov_water_deg(rig.camera)) / 2)
+        size_m = case.target_fill * field_width_m(rig.camera, case.distance_m)
     daylight = None
     if case.depth_m is not None:  # ambient daylight at depth: sun at 30°, Kd field (rigsim.render.daylight)
         from rigsim.scene.daylight_field import daylight_from_options

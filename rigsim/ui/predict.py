@@ -223,7 +223,7 @@ def image_size(rig: Rig, width: int) -> tuple[int, int]:
 
 
 def _scene(rig: Rig, cond: Conditions, distance_m: float | None = None, fill: float | None = None):
-    from rigsim.scene.optics import fov_water_deg
+    from rigsim.scene.optics import field_width_m
     from rigsim.scene.build import build_scene
 
     if cond.target not in TARGETS:
@@ -236,7 +236,7 @@ def _scene(rig: Rig, cond: Conditions, distance_m: float | None = None, fill: fl
     if fill is not None:
         if not 0 < fill <= 1.5:
             raise ConfigError(f"target fill must be within (0, 1.5], got {fill}", field="target_fill")
-        size = fill * 2 * d * math.tan(math.radians(fov_water_deg(rig.camera)) / 2)
+        size = fill * field_width_m(rig.camera, d)
     water = load_water_cached(cond.water, tuple(cond.water_overrides), cond.particles)
     return build_scene(rig, water, cond.target, d, size_m=size)
 
