@@ -118,6 +118,12 @@ class Setting:
     def subject_kind(self) -> str:
         return "mesh" if str(self.subject).lower().endswith((".obj", ".ply", ".gltf", ".glb")) else str(self.subject)
 
+    def load_water(self):
+        """The :class:`~rigsim.water.Water` (with its marine snow) of this setting."""
+        from rigsim.config.water import load_water
+
+        return load_water(self.water, particles=None if self.particles in ("", None) else self.particles)
+
     def label(self) -> str:
         snow = "" if self.particles in ("none", "", None) else f", {self.particles} marine snow"
         return f"{self.water} water, subject at {self.distance_m:g} m{snow}"
@@ -230,12 +236,11 @@ class Evaluation:
 
 def scene_for(rig: Rig, setting: Setting, water=None):
     """The scene of ``setting`` with ``rig`` (``water``: an already loaded :class:`~rigsim.water.Water`)."""
-    from rigsim.config.water import load_water
     from rigsim.scene.build import build_scene
     from rigsim.scene.optics import field_width_m
 
     if water is None:
-        water = load_water(setting.water, particles=None if setting.particles in ("", None) else setting.particles)
+        water = setting.load_water()
     size = setting.subject_fill * field_width_m(rig.camera, setting.distance_m)
     return build_scene(rig, water, setting.subject, setting.distance_m, size_m=size)
 

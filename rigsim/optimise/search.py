@@ -60,11 +60,10 @@ class Evaluator:
 
     def __init__(self, space: Space, setting: Setting, weights: Weights = DEFAULT_WEIGHTS,
                  fidelity: Fidelity = SEARCH, seed: int = 0):
-        from rigsim.config.water import load_water
         from rigsim.sensor import load_sensor
 
         self.space, self.setting, self.weights, self.fidelity, self.seed = space, setting, weights, fidelity, seed
-        self.water = load_water(setting.water, particles=None if setting.particles in ("", None) else setting.particles)
+        self.water = setting.load_water()
         self.sensor = load_sensor(setting.sensor)
         self.cache: dict[str, tuple[float, Evaluation]] = {}
         self.calls = 0

@@ -78,3 +78,19 @@ def test_optimised_rig_beats_every_shipped_placement(water):
         placed = doc.place_lights(moves)
         score = ev.evaluation(placed, REPORT).score(opt.weights)
         assert best < score, f"{name}: {score:.4f} beats the optimum {best:.4f}"
+
+
+def test_monte_carlo_check_confirms_a_large_improvement():
+    """The output's Monte Carlo check (small: 48 px, 3 seeds × 16 paths) of a 45-wide rig optimised for coastal
+    water: the fast engine's backscatter share and unevenness of start and optimum lie within 4 standard errors
+    + 5 % of Monte Carlo's, and a score about halved is confirmed beyond the difference's 95 % interval."""
+    from rigsim.optimise.output import verify
+
+    doc = RigDoc.load(RIGS / "twin-strobes-45-wide.toml")
+    opt = optimise(doc, Setting(water="coastal", distance_m=1.5), seed=0, global_points=16, local_evaluations=20)
+    assert opt.improvement > 0.3
+    v = verify(opt, width=48, seeds=3, spp=16)
+    for fast, mc, se in ((v.start_fast, v.start_mc, v.start_mc_se), (v.best_fast, v.best_mc, v.best_mc_se)):
+        for k in ("backscatter_share", "evenness_cv"):
+            assert abs(fast[k] - mc[k]) <= 0.05 * mc[k] + 4 * se[k], (k, fast[k], mc[k], se[k])
+    assert v.holds and v.radiance_score_best < v.radiance_score_start
