@@ -1,24 +1,181 @@
 """Geometry of the preview: ray casting against target surfaces, shadow tests.
 
-Pure numpy, no Mitsuba.  Camera rays come from :mod:`rigsim.scene.optics` (the one
-camera and port model, shared with the renderer).  The surfaces are those of
-:func:`rigsim.scene.surfaces.target_surfaces`, numbered 1… across all targets in scene
-order, as the renderer numbers them; they are two-sided Lambertian reflectors.
+Camera rays come from :mod:`rigsim.scene.optics` (the one camera and port model, shared with the
+renderer).  The surfaces are those of :func:`rigsim.scene.surfaces.target_surfaces`, numbered 1…
+across all targets in scene order, as the renderer numbers them; they are two-sided Lambertian
+reflectors.
 
-Mesh targets are not supported by the preview (it has no triangle intersector).
+Flat pieces (rectangles, disks: charts, disks, the bottom) are intersected in numpy, plane by plane.
+Triangle meshes (:func:`rigsim.scene.meshes.placed_mesh`, the arrays the renderer draws) are found by
+Mitsuba's ray intersector (``Scene.ray_intersect_preliminary``: Embree's BVH on the CPU, in single
+precision) on one Mitsuba mesh holding every mesh target's triangles; the hit triangle is then
+intersected again in double precision (Möller & Trumbore 1997) for the distance and the barycentric
+coordinates, and the shading normal is interpolated from the vertex normals as Mitsuba does
+(smooth shading; two-sided: the caller turns it to the side it meets).  Rays start
+``MESH_EPS_REL · (1 + |o|∞)`` past their origin in the mesh test (single precision would find the
+surface a ray leaves at t ≈ 0).
 """
 
 from __future__ import annotations
 
+import threading
 from dataclasses import dataclass
 
 import numpy as np
 
 from rigsim.errors import ConfigError
+from rigsim.scene.meshes import placed_mesh
 from rigsim.scene.surfaces import target_surfaces, Surface
 from rigsim.scene.types import Scene
 
-__all__ = ["SceneSurfaces", "scene_surfaces", "cast_rays", "occluded"]
+__all__ = ["SceneSurfaces", "MeshSet", "scene_surfaces", "cast_rays", "occluded", "MESH_EPS_REL"]
+
+#: Mesh rays start this far (relative to 1 + the origin's largest coordinate, m) past their origin: a
+#: few float32 steps, so a ray leaving a triangle does not meet it again.
+MESH_EPS_REL = 4e-6
+
+_ACCEL_LOCK = threading.Lock()
+
+#: Rays per call of Mitsuba's intersector (bounds its memory: ~100 bytes a ray).
+_MESH_CHUNK = 1 << 21
+
+
+@dataclass(frozen=True, eq=False)
+class MeshSet:
+    """The triangles of every mesh surface of a scene, in world coordinates (m).
+
+    Attributes
+    ----------
+    v0, e1, e2
+        (T, 3) first vertex and the edges to the second and third.
+    geo_normal
+        (T, 3) unit face normals (the file's winding).
+    corner_normals
+        (T, 3, 3) unit vertex normals at the three corners (smooth shading).
+    oid
+        (T,) object id (1-based) of each triangle.
+    area_m2
+        (T,) triangle areas.
+    """
+
+    v0: np.ndarray
+    e1: np.ndarray
+    e2: np.ndarray
+    geo_normal: np.ndarray
+    corner_normals: np.ndarray
+    oid: np.ndarray
+    area_m2: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.oid)
+
+    @classmethod
+    def from_surfaces(cls, pieces) -> "MeshSet | None":
+        """The :class:`MeshSet` of the mesh pieces among ``pieces`` (object id = position + 1), or None."""
+        parts = []
+        for k, p in enumerate(pieces):
+            if p.shape != "mesh":
+                continue
+            V, F, N = placed_mesh(p.mesh_path, p.matrix())
+            parts.append((V[F], N[F], np.full(len(F), k + 1, np.int32)))
+        if not parts:
+            return None
+        tri = np.concatenate([q[0] for q in parts])
+        cn = np.concatenate([q[1] for q in parts])
+        e1, e2 = tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]
+        cr = np.cross(e1, e2)
+        length = np.linalg.norm(cr, axis=1)
+        geo = cr / np.maximum(length, 1e-300)[:, None]
+        # a corner without a normal (on no triangle of the file) shades flat
+        bad = np.linalg.norm(cn, axis=2) < 0.5
+        cn = np.where(bad[..., None], geo[:, None, :], cn)
+        out = cls(tri[:, 0].copy(), e1, e2, geo, cn, np.concatenate([q[2] for q in parts]), 0.5 * length)
+        out._accel()
+        return out
+
+    def _accel(self):
+        """One Mitsuba scene with all the triangles (built once; :meth:`from_surfaces` builds it on the
+        calling thread, before the image's tiles run on threads)."""
+        with _ACCEL_LOCK:
+            return self._accel_locked()
+
+    def _accel_locked(self):
+        acc = self.__dict__.get("_scene")
+        if acc is None:
+            from rigsim.render.variant import mitsuba
+
+            mi, _ = mitsuba()
+            T = len(self)
+            verts = np.stack([self.v0, self.v0 + self.e1, self.v0 + self.e2], axis=1).reshape(-1, 3)
+            mesh = mi.Mesh("rigsim_fast_meshes", 3 * T, T)
+            params = mi.traverse(mesh)
+            params["vertex_positions"] = mi.Float(verts.astype(np.float32).ravel())
+            params["faces"] = mi.UInt32(np.arange(3 * T, dtype=np.uint32))
+            params.update()
+            acc = self.__dict__["_scene"] = (mi, mi.load_dict({"type": "scene", "meshes": mesh}))
+        return acc
+
+    def first_hits(self, o: np.ndarray, d: np.ndarray, t_max: np.ndarray | None = None
+                   ) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """First triangle along each ray (o, d: (N, 3) unit directions), nearer than ``t_max`` if given:
+        ``(t, triangle index, u, v)`` (inf, −1 where none; u, v barycentric of the 2nd and 3rd vertex)."""
+        mi, scene = self._accel()
+        N = len(d)
+        t = np.full(N, np.inf)
+        tri = np.full(N, -1, np.int64)
+        eps = MESH_EPS_REL * (1.0 + np.max(np.abs(o), axis=1)) if N else np.zeros(0)
+        for a in range(0, N, _MESH_CHUNK):
+            b = min(N, a + _MESH_CHUNK)
+            oo = (o[a:b] + eps[a:b, None] * d[a:b]).astype(np.float32)
+            dd = d[a:b].astype(np.float32)
+            ray = mi.Ray3f(mi.Point3f(*(mi.Float(oo[:, i]) for i in range(3))),
+                           mi.Vector3f(*(mi.Float(dd[:, i]) for i in range(3))))
+            if t_max is not None:
+                ray.maxt = mi.Float(np.maximum(t_max[a:b] - eps[a:b], 0.0).astype(np.float32))
+            pi = scene.ray_intersect_preliminary(ray)
+            tt = np.asarray(pi.t.numpy(), float)
+            hit = np.isfinite(tt)
+            tri[a:b] = np.where(hit, np.asarray(pi.prim_index.numpy(), np.int64), -1)
+        u = np.zeros(N)
+        v = np.zeros(N)
+        idx = np.flatnonzero(tri >= 0)
+        if idx.size:
+            k = tri[idx]
+            tt, uu, vv = _moller_trumbore(o[idx], d[idx], self.v0[k], self.e1[k], self.e2[k])
+            # single precision may call a hit that double precision puts a hair outside: keep the hit,
+            # clamping its coordinates onto the triangle
+            uu, vv = np.clip(uu, 0.0, 1.0), np.clip(vv, 0.0, 1.0)
+            over = uu + vv > 1.0
+            sv = np.where(over, uu + vv, 1.0)
+            uu, vv = uu / sv, vv / sv
+            ok = np.isfinite(tt) & (tt > 0)
+            if t_max is not None:
+                ok &= tt < t_max[idx]
+            t[idx] = np.where(ok, tt, np.inf)
+            tri[idx] = np.where(ok, k, -1)
+            u[idx], v[idx] = uu, vv
+        return t, tri, u, v
+
+    def shading_normal(self, tri: np.ndarray, u: np.ndarray, v: np.ndarray) -> np.ndarray:
+        """(N, 3) unit normals interpolated from the corners (the face normal where that vanishes)."""
+        cn = self.corner_normals[tri]
+        n = (1.0 - u - v)[:, None] * cn[:, 0] + u[:, None] * cn[:, 1] + v[:, None] * cn[:, 2]
+        length = np.linalg.norm(n, axis=1, keepdims=True)
+        return np.where(length > 1e-9, n / np.maximum(length, 1e-300), self.geo_normal[tri])
+
+
+def _moller_trumbore(o, d, v0, e1, e2):
+    """Ray parameter and barycentric (u, v) of the rays' planes crossing with their triangles (float64)."""
+    pv = np.cross(d, e2)
+    det = np.sum(e1 * pv, axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        inv = np.where(np.abs(det) > 1e-300, 1.0 / det, np.nan)
+        tv = o - v0
+        u = np.sum(tv * pv, axis=1) * inv
+        qv = np.cross(tv, e1)
+        v = np.sum(d * qv, axis=1) * inv
+        t = np.sum(e2 * qv, axis=1) * inv
+    return t, u, v
 
 
 @dataclass(frozen=True, eq=False)
@@ -34,9 +191,12 @@ class SceneSurfaces:
     center, u, v, normal
         (S, 3) arrays.
     half_size
-        (S, 2) half extents along u and v (rectangles), radius in column 0 (disks).
-    is_disk
+        (S, 2) half extents along u and v (rectangles), radius in column 0 (disks); for a mesh, half
+        its largest extent (the square about its centre in the (u, v) plane that holds it).
+    is_disk, is_mesh
         (S,) bool.
+    meshes
+        The triangles of the mesh surfaces (:class:`MeshSet`), None if there are none.
     """
 
     surfaces: tuple[Surface, ...]
@@ -47,6 +207,8 @@ class SceneSurfaces:
     normal: np.ndarray
     half_size: np.ndarray
     is_disk: np.ndarray
+    is_mesh: np.ndarray
+    meshes: MeshSet | None = None
 
     def __len__(self) -> int:
         return len(self.surfaces)
@@ -71,9 +233,6 @@ def scene_surfaces(scene: Scene) -> SceneSurfaces:
             raise ConfigError(f"size must be > 0 m, got {t.size_m}", field=f"targets[{ti}].size_m",
                               allowed="> 0")
         for p in target_surfaces(t, scene.camera):
-            if p.shape == "mesh":
-                raise ConfigError("the preview cannot draw mesh targets; use the renderer",
-                                  field=f"targets[{ti}]", allowed="colorchecker, disks, slanted-edge, bottom")
             pieces.append(p)
             labels.append(f"target {ti} {t.kind}: {p.name}")
     S = len(pieces)
@@ -83,7 +242,8 @@ def scene_surfaces(scene: Scene) -> SceneSurfaces:
 
     half = np.array([p.size_m for p in pieces], float).reshape(S, 2) / 2.0
     return SceneSurfaces(tuple(pieces), tuple(labels), arr("center_m"), arr("u_axis"), arr("v_axis"),
-                         arr("normal"), half, np.array([p.shape == "disk" for p in pieces], bool))
+                         arr("normal"), half, np.array([p.shape == "disk" for p in pieces], bool),
+                         np.array([p.shape == "mesh" for p in pieces], bool), MeshSet.from_surfaces(pieces))
 
 
 @dataclass(frozen=True, eq=False)
@@ -112,12 +272,15 @@ def _key(axis: np.ndarray) -> tuple:
     return tuple(np.round(axis, 15))
 
 
-def _plan(surf: SceneSurfaces) -> list[_Piece]:
-    """The :class:`_Piece` of each surface, kept on ``surf``."""
+def _plan(surf: SceneSurfaces) -> list[_Piece | None]:
+    """The :class:`_Piece` of each flat surface (None for a mesh), kept on ``surf``."""
     plan = surf.__dict__.get("_plan")
     if plan is None:
         plan = []
         for k in range(len(surf)):
+            if surf.is_mesh[k]:
+                plan.append(None)
+                continue
             c, n, u, v = surf.center[k], surf.normal[k], surf.u[k], surf.v[k]
             disk = bool(surf.is_disk[k])
             half = (float(surf.half_size[k, 0]), float(surf.half_size[k, 0 if disk else 1]))
@@ -169,7 +332,7 @@ class _RayDots:
         key = ("cand", pc.plane_key, pc.u_key, pc.v_key)
         hit = self._cache.get(key)
         if hit is None:
-            group = [q for q in pieces if (q.plane_key, q.u_key, q.v_key) == (pc.plane_key, pc.u_key, pc.v_key)]
+            group = [q for q in pieces if q is not None and (q.plane_key, q.u_key, q.v_key) == (pc.plane_key, pc.u_key, pc.v_key)]
             t, _, valid = self.plane(pc)
             a, b = self.along(pc, pc.u_key, pc.u), self.along(pc, pc.v_key, pc.v)
             m = valid
@@ -200,11 +363,13 @@ def _hit_t(surf: SceneSurfaces, k: int, origin: np.ndarray, direction: np.ndarra
     return np.where(inside & valid, t, np.inf)
 
 
-def cast_rays(surf: SceneSurfaces, origin: np.ndarray, direction: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """First hit of each ray: ``(t, object_id)`` (t = inf and id 0 where nothing is hit).
+def cast_rays(surf: SceneSurfaces, origin: np.ndarray, direction: np.ndarray, *, normals: bool = False):
+    """First hit of each ray: ``(t, object_id)`` (t = inf and id 0 where nothing is hit); with
+    ``normals=True`` also the (…, 3) unit normal there (a flat piece's, a mesh's interpolated shading
+    normal, not turned to any side; zero where nothing is hit).
 
-    Surfaces are tested in order (the first of equally near ones wins), each on the rays that meet
-    the bounding box of the pieces sharing its plane.
+    Flat surfaces are tested in order (the first of equally near ones wins), each on the rays that meet
+    the bounding box of the pieces sharing its plane; then the meshes (:class:`MeshSet`).
     """
     shape = direction.shape[:-1]
     d = direction.reshape(-1, 3)
@@ -214,6 +379,8 @@ def cast_rays(surf: SceneSurfaces, origin: np.ndarray, direction: np.ndarray) ->
     dots = _RayDots(o, d)
     pieces = _plan(surf)
     for k, pc in enumerate(pieces):
+        if pc is None:
+            continue
         idx, t, a, b = dots.candidates(pieces, k)
         if not len(idx):
             continue
@@ -221,21 +388,49 @@ def cast_rays(surf: SceneSurfaces, origin: np.ndarray, direction: np.ndarray) ->
         hit = t < best[idx]
         best[idx] = np.where(hit, t, best[idx])
         oid[idx] = np.where(hit, k + 1, oid[idx])
+    nrm = None
+    if normals:
+        nrm = np.zeros((len(d), 3))
+        m = oid > 0
+        nrm[m] = surf.normal[oid[m] - 1]
+    ms = surf.meshes
+    if ms is not None and len(d):
+        t, tri, u, v = ms.first_hits(o, d, np.where(np.isfinite(best), best, np.inf) if np.any(oid) else None)
+        hit = (tri >= 0) & (t < best)
+        if np.any(hit):
+            best[hit] = t[hit]
+            oid[hit] = ms.oid[tri[hit]]
+            if normals:
+                nrm[hit] = ms.shading_normal(tri[hit], u[hit], v[hit])
+    if normals:
+        return best.reshape(shape), oid.reshape(shape), nrm.reshape(shape + (3,))
     return best.reshape(shape), oid.reshape(shape)
 
 
 def occluded(surf: SceneSurfaces, points: np.ndarray, light_pos: np.ndarray, *,
              exclude: np.ndarray | None = None, eps: float = 1e-6) -> np.ndarray:
-    """Whether the segment from each point to the light crosses a surface (other than ``exclude``)."""
+    """Whether the segment from each point to the light crosses a surface (other than the flat surface
+    ``exclude``; a mesh may shadow itself, the mesh test starting :data:`MESH_EPS_REL` off the point)."""
     d = np.asarray(light_pos, float) - points
     dist = np.linalg.norm(d, axis=-1)
     d = d / np.maximum(dist, 1e-300)[..., None]
     blocked = np.zeros(points.shape[:-1], bool)
     dots = _RayDots(points, d)
-    for k in range(len(surf)):
+    for k, pc in enumerate(_plan(surf)):
+        if pc is None:
+            continue
         t = _hit_t(surf, k, points, d, dots)
         b = (t > eps) & (t < dist - eps)
         if exclude is not None:
             b &= exclude != k + 1
         blocked |= b
+    ms = surf.meshes
+    if ms is not None and blocked.size:
+        flat_b = blocked.reshape(-1)
+        todo = np.flatnonzero(~flat_b)
+        if todo.size:
+            p = points.reshape(-1, 3)[todo]
+            t, tri, _, _ = ms.first_hits(p, d.reshape(-1, 3)[todo], dist.reshape(-1)[todo] - eps)
+            flat_b[todo] = tri >= 0
+        blocked = flat_b.reshape(blocked.shape)
     return blocked

@@ -542,17 +542,18 @@ def _view(scene: Scene, surf: SceneSurfaces, width: int, height: int, n: int, n_
     t_c, oid_c = np.empty((height, width)), np.empty((height, width), np.int32)
     d_c, oy_c = np.empty((height, width, 3)), np.empty((height, width))
     range_m = np.empty((height, width), np.float32)
-    normals = surf.normal if len(surf) else np.zeros((1, 3))  # a scene of open water only
+    n_c = np.zeros((height, width, 3)) if edge_n > 1 else None  # the centres' normals, for the edge pass
     lpos = [np.asarray(x, float) for x in light_positions]
     hits: list = [None] * len(tiles)
     path_max = np.full((len(tiles), len(lpos)), -np.inf)
 
-    def make_hits(i, o, d, t, oid, pix, w):
-        """Hits of the samples (o, d, t, oid flat) that meet a surface; ``pix`` their pixels in the tile."""
+    def make_hits(i, o, d, t, oid, nrm, pix, w):
+        """Hits of the samples (o, d, t, oid, normal flat) that meet a surface; ``pix`` their pixels in
+        the tile."""
         idx = np.flatnonzero(oid > 0)
         ts, oid = t[idx], oid[idx]
         p = o[idx] + ts[:, None] * d[idx]
-        nrm = normals[oid - 1]
+        nrm = nrm[idx]
         side = np.sum(nrm * d[idx], axis=-1) > 0  # two-sided: face the camera
         nrm = np.where(side[:, None], -nrm, nrm)
         h = _Hits(pix[idx], p, nrm, side, oid, ts, None if w is None else w[idx])
@@ -567,39 +568,41 @@ def _view(scene: Scene, surf: SceneSurfaces, width: int, height: int, n: int, n_
         X = ((px[:, None, None] + g[None, None, :]) / width) * np.ones((1, m, 1))
         Y = ((y0 + py[:, None, None] + g[None, :, None]) / height) * np.ones((1, 1, m))
         o, d = camera_rays(cam, X, Y, n_outside=n_out)
-        t, oid = cast_rays(surf, o, d)
+        t, oid, nrm = cast_rays(surf, o, d, normals=True)
         pix = np.repeat(py * width + px, m * m)
-        return o.reshape(-1, 3), d.reshape(-1, 3), t.ravel(), oid.ravel(), pix
+        return o.reshape(-1, 3), d.reshape(-1, 3), t.ravel(), oid.ravel(), nrm.reshape(-1, 3), pix
 
     def centre(i):
         y0, y1 = tiles[i]
         o, d = view.rays(y0, y1)
-        t, oid = cast_rays(surf, o, d)
+        t, oid, nrm = cast_rays(surf, o, d, normals=True)
         t_c[y0:y1], oid_c[y0:y1], d_c[y0:y1], oy_c[y0:y1] = t, oid, d, o[..., 1]
-        o, d, t, oid = o.reshape(-1, 3), d.reshape(-1, 3), t.ravel(), oid.ravel()
+        if n_c is not None:
+            n_c[y0:y1] = nrm
+        o, d, t, oid, nrm = o.reshape(-1, 3), d.reshape(-1, 3), t.ravel(), oid.ravel(), nrm.reshape(-1, 3)
         idx = np.flatnonzero(oid > 0)
         r = np.full(len(t), np.inf, np.float32)
         r[idx] = np.linalg.norm(o[idx] + t[idx, None] * d[idx] - pupil, axis=-1)
         range_m[y0:y1] = r.reshape(y1 - y0, width)
         if n > 1:
             py, px = np.divmod(np.arange((y1 - y0) * width), width)
-            o, d, t, oid, pix = subsamples(y0, py, px, n)
-            make_hits(i, o, d, t, oid, pix, np.full(len(t), 1.0 / (n * n), np.float32))
+            o, d, t, oid, nrm, pix = subsamples(y0, py, px, n)
+            make_hits(i, o, d, t, oid, nrm, pix, np.full(len(t), 1.0 / (n * n), np.float32))
         elif edge_n == 1:
-            make_hits(i, o, d, t, oid, np.arange(len(t)), None)
+            make_hits(i, o, d, t, oid, nrm, np.arange(len(t)), None)
 
     def edges(i):
         y0, y1 = tiles[i]
         o, d = view.rays(y0, y1)
         o, d = o.reshape(-1, 3), d.reshape(-1, 3)
-        t, oid = t_c[y0:y1].ravel(), oid_c[y0:y1].ravel()
+        t, oid, nrm = t_c[y0:y1].ravel(), oid_c[y0:y1].ravel(), n_c[y0:y1].reshape(-1, 3)
         on_edge = edge[y0:y1].ravel()
         keep = np.flatnonzero(~on_edge)
         py, px = np.divmod(np.flatnonzero(on_edge), width)
-        so, sd, st, soid, spix = subsamples(y0, py, px, edge_n)
+        so, sd, st, soid, snrm, spix = subsamples(y0, py, px, edge_n)
         w = np.concatenate([np.ones(len(keep), np.float32), np.full(len(st), 1.0 / edge_n ** 2, np.float32)])
         make_hits(i, np.concatenate([o[keep], so]), np.concatenate([d[keep], sd]), np.concatenate([t[keep], st]),
-                  np.concatenate([oid[keep], soid]), np.concatenate([keep, spix]), w)
+                  np.concatenate([oid[keep], soid]), np.concatenate([nrm[keep], snrm]), np.concatenate([keep, spix]), w)
 
     view = _View(cam, n_out, width, height, n, tiles, t_c, oid_c, d_c, oy_c, range_m, cols, rows, hits, [])
     run(pmap, centre, range(len(tiles)))
@@ -904,7 +907,7 @@ class _Group:
                 amp = np.exp(-K.kappa * rr) - np.exp(-K.c * rr)  # e^{−cr}(e^{bFr} − 1)
                 scattered += geo.astype(dt)[:, None] * fb * amp * lamp.rho_Ic[h.oid]
         if self.ms is not None and N:  # targets lit by the multiply scattered light
-            scattered += (self.rho_c[h.oid] / np.pi * self.ms.irradiance_at(self.surf, h.oid, h.p)).astype(dt)
+            scattered += (self.rho_c[h.oid] / np.pi * self.ms.irradiance_at(self.surf, h.oid, h.p, h.nrm)).astype(dt)
         day_lit = None
         if self.day is not None and N:
             day_lit = K.rho_c[h.oid] / np.pi * self.day.irradiance(h, dt)
@@ -1121,6 +1124,23 @@ def _particle_shadows(group: "_Group", image: np.ndarray, ps, scene: Scene) -> n
 
 
 # --- daylight ------------------------------------------------------------------------------
+#: Nodes of the grid of surface normals (zenith 0–180°, azimuth −180–180°) on which the diffuse daylight's
+#: irradiance of mesh samples is interpolated (every 5.6° in each).
+_NORMAL_GRID = (33, 65)
+
+
+def _on_normal_grid(grid: np.ndarray, n: np.ndarray) -> np.ndarray:
+    """Bilinear interpolation of ``grid`` (nθ, nφ, B) at unit normals ``n`` (N, 3)."""
+    nt, nph = grid.shape[:2]
+    th = np.arccos(np.clip(n[:, 1], -1.0, 1.0)) / np.pi * (nt - 1)
+    ph = (np.arctan2(n[:, 0], n[:, 2]) + np.pi) / (2 * np.pi) * (nph - 1)
+    i0 = np.clip(np.floor(th).astype(np.int64), 0, nt - 2)
+    j0 = np.clip(np.floor(ph).astype(np.int64), 0, nph - 2)
+    ft, fp = (th - i0)[:, None].astype(grid.dtype), (ph - j0)[:, None].astype(grid.dtype)
+    return ((1 - ft) * ((1 - fp) * grid[i0, j0] + fp * grid[i0, j0 + 1])
+            + ft * ((1 - fp) * grid[i0 + 1, j0] + fp * grid[i0 + 1, j0 + 1]))
+
+
 class _Daylight:
     """The scene's daylight field (:mod:`rigsim.scene.daylight_field`) for the per-pixel passes."""
 
@@ -1140,8 +1160,22 @@ class _Daylight:
         cosw = np.stack([np.clip(dirs @ n, 0.0, None).sum(axis=-1) * dw for n in uniq]) if len(uniq) else \
             np.zeros((0,) + dirs.shape[:2])
         e_dif = np.einsum("btp,utp->ub", day.diffuse[idx], cosw)[np.asarray(inv).ravel()]
+        # meshes have a normal per sample: the diffuse irradiance on a grid of normals (zenith × azimuth
+        # nodes), interpolated bilinearly (the field is smooth in the normal: a cosine-weighted integral)
+        self.is_mesh = np.r_[False, surf.is_mesh] if len(surf) else np.zeros(1, bool)
+        grid = None
+        if self.is_mesh.any():
+            th = np.linspace(0.0, np.pi, _NORMAL_GRID[0])
+            ph = np.linspace(-np.pi, np.pi, _NORMAL_GRID[1])
+            TH, PH = np.meshgrid(th, ph, indexing="ij")
+            nodes = np.stack([np.sin(TH) * np.sin(PH), np.cos(TH), np.sin(TH) * np.cos(PH)], -1).reshape(-1, 3)
+            grid = np.concatenate([
+                np.einsum("btp,ntp->nb", day.diffuse[idx],
+                          np.clip(np.einsum("tpsk,nk->ntps", dirs, nodes[a:a + 64]), 0.0, None).sum(axis=-1) * dw)
+                for a in range(0, len(nodes), 64)]).reshape(TH.shape + (len(idx),))
         self.t = {dt: dict(beam=day.beam[idx].astype(dt), k_beam=day.k_beam[idx].astype(dt),
-                           k_diffuse=self.k.astype(dt), c=self.c.astype(dt), e_dif=e_dif.astype(dt))
+                           k_diffuse=self.k.astype(dt), c=self.c.astype(dt), e_dif=e_dif.astype(dt),
+                           e_grid=None if grid is None else grid.astype(dt))
                   for dt in (_F32, _F64)}
         self.day32 = dataclasses.replace(day, diffuse=day.diffuse.astype(np.float32))
 
@@ -1157,8 +1191,12 @@ class _Daylight:
         cos_sun = np.clip(-(h.nrm @ self.sun), 0.0, None)
         e_sun = (cos_sun * self.day.caustic(h.p)).astype(dt)[..., None] * t["beam"] \
             * height_factor(t["k_beam"], dy, np.exp)
-        e_dif = t["e_dif"][2 * (h.oid - 1) + h.side] * height_factor(t["k_diffuse"], dy, np.exp)
-        return e_sun + e_dif
+        e_dif = t["e_dif"][2 * (h.oid - 1) + h.side]
+        if t["e_grid"] is not None:
+            m = self.is_mesh[h.oid]
+            if np.any(m):
+                e_dif[m] = _on_normal_grid(t["e_grid"], h.nrm[m])
+        return e_sun + e_dif * height_factor(t["k_diffuse"], dy, np.exp)
 
     def path_radiance(self, o_y: np.ndarray, d: np.ndarray, t_hit: np.ndarray) -> np.ndarray:
         """Duntley's path radiance along each pixel ray (…, B) float32, as the renderer's.

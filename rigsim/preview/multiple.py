@@ -239,33 +239,67 @@ class MultipleScattering:
         kb = np.clip(np.searchsorted(self.range_edges_m, np.asarray(range_m, float), side="right") - 1, 0, M - 1)
         return self.fluence[ir, ic, kb]
 
-    def irradiance_at(self, surf: SceneSurfaces, oid: np.ndarray, points: np.ndarray) -> np.ndarray:
-        """Class-B irradiance (N, B) at surface points ``points`` (N, 3) of objects ``oid`` (1-based)."""
+    def irradiance_at(self, surf: SceneSurfaces, oid: np.ndarray, points: np.ndarray,
+                      normals: np.ndarray) -> np.ndarray:
+        """Class-B irradiance (N, B) at surface points ``points`` (N, 3) of objects ``oid`` (1-based), on
+        the side whose normal is ``normals`` (N, 3)."""
         k = np.asarray(oid) - 1
-        iu, iv = _texture_cell(surf, k, points)
+        iu, iv = _texture_cell(surf, k, points, normals)
         return self.irradiance[k, iu, iv]
 
 
-def _texture_cell(surf: SceneSurfaces, k: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def _texture_cell(surf: SceneSurfaces, k: np.ndarray, p: np.ndarray, side_normal: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Texture cell of points ``p`` on surfaces ``k`` (0-based): a flat piece's own square of TEXTURE²
+    cells; a mesh's square about its centre in its (u, v) plane, TEXTURE × TEXTURE/2 cells for the side
+    facing the mesh's ``normal`` (the camera) and as many for the side facing away (``side_normal``: the
+    normal of the side the light meets or the camera sees)."""
     rel = p - surf.center[k]
     a = np.sum(rel * surf.u[k], axis=-1)
     b = np.sum(rel * surf.v[k], axis=-1)
     hw = surf.half_size[k, 0]
-    hh = np.where(surf.is_disk[k], surf.half_size[k, 0], surf.half_size[k, 1])
+    hh = np.where(surf.is_disk[k] | surf.is_mesh[k], surf.half_size[k, 0], surf.half_size[k, 1])
     iu = np.clip(((a / np.maximum(hw, 1e-12) + 1) * 0.5 * TEXTURE).astype(np.int64), 0, TEXTURE - 1)
-    iv = np.clip(((b / np.maximum(hh, 1e-12) + 1) * 0.5 * TEXTURE).astype(np.int64), 0, TEXTURE - 1)
+    fv = (b / np.maximum(hh, 1e-12) + 1) * 0.5
+    iv = np.clip((fv * TEXTURE).astype(np.int64), 0, TEXTURE - 1)
+    mesh = surf.is_mesh[k]
+    if np.any(mesh):
+        half = TEXTURE // 2
+        back = np.sum(side_normal * surf.normal[k], axis=-1) < 0
+        iv_m = np.clip((fv * half).astype(np.int64), 0, half - 1) + np.where(back, half, 0)
+        iv = np.where(mesh, iv_m, iv)
     return iu, iv
 
 
 def _cell_areas(surf: SceneSurfaces) -> np.ndarray:
-    """(S,) area of one texture cell of each surface (m²); a disk's cells share its area."""
+    """(S, TEXTURE, TEXTURE) area of each texture cell (m²); a disk's cells share its area; a mesh's
+    cells hold the area of its triangles (16 points on each) on the side facing the cell's way (the
+    file's winding taken as outward)."""
     full = np.where(surf.is_disk, np.pi * surf.half_size[:, 0] ** 2, 4 * surf.half_size[:, 0] * surf.half_size[:, 1])
     cells = np.full(len(surf), float(TEXTURE * TEXTURE))
     if np.any(surf.is_disk):  # cells of the disk's square that overlap it: ~π/4 of them
         g = (np.arange(TEXTURE) + 0.5) / TEXTURE * 2 - 1
         inside = float(np.sum(g[:, None] ** 2 + g[None, :] ** 2 <= 1.0))
         cells = np.where(surf.is_disk, inside, cells)
-    return full / cells
+    out = np.broadcast_to((full / cells)[:, None, None], (len(surf), TEXTURE, TEXTURE)).copy()
+    ms = surf.meshes
+    if ms is not None:
+        g = (np.arange(4) + 0.5) / 4
+        su, sv = np.meshgrid(g, g, indexing="ij")
+        su, sv = su.ravel(), sv.ravel()
+        fold = su + sv > 1  # fold the unit square onto the triangle (uniform in area)
+        su, sv = np.where(fold, 1 - su, su), np.where(fold, 1 - sv, sv)
+        pts = ms.v0[:, None] + su[None, :, None] * ms.e1[:, None] + sv[None, :, None] * ms.e2[:, None]
+        k = np.repeat(ms.oid - 1, len(su))
+        nrm = np.repeat(ms.geo_normal, len(su), axis=0)
+        iu, iv = _texture_cell(surf, k, pts.reshape(-1, 3), nrm)
+        for m in np.unique(ms.oid - 1):
+            out[m] = 0.0
+        np.add.at(out, (k, iu, iv), np.repeat(ms.area_m2 / len(su), len(su)))
+        for m in np.unique(ms.oid - 1):
+            a = out[m]
+            a[a <= 0] = np.inf  # cells with no surface get no light
+    return out
 
 
 def _rotate(d: np.ndarray, cos_t: np.ndarray, phi: np.ndarray) -> np.ndarray:
@@ -438,9 +472,9 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
             break
         p, d = pos, dirs
         if S:
-            t_s, oid = cast_rays(surf, p, d)
+            t_s, oid, n_hit = cast_rays(surf, p, d, normals=True)
         else:
-            t_s, oid = np.full(n, np.inf), np.zeros(n, np.int32)
+            t_s, oid, n_hit = np.full(n, np.inf), np.zeros(n, np.int32), np.zeros((n, 3))
         t = -np.log1p(-rng.random(n)) / c[hero]
         med = t < t_s
         if track and np.any(n_sig >= 1):
@@ -523,15 +557,16 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
             dep = n_sig[sv] >= 1  # one alone (the first event) is the analytic model's direct light
             if only_a:
                 dep = ~dep
+            nrm = n_hit[sv]
+            nrm = np.where((np.sum(nrm * d[sv], axis=1) > 0)[:, None], -nrm, nrm)  # the lit side
             if every or qss:
-                _splat_surface(veil_s, (bid[sv], li[sv]), x, k, d[sv], F[sv], refl, surf, pupil, reach, edges,
+                _splat_surface(veil_s, (bid[sv], li[sv]), x, k, nrm, F[sv], refl, surf, pupil, reach, edges,
                                c if every else kappa_cam, omega, cam, width, height, cols, rows, n_out)
                 dep[:] = False
             if np.any(dep):
-                iu, iv = _texture_cell(surf, k[dep], x[dep])
-                np.add.at(irr, (bid[sv[dep]], li[sv[dep]], k[dep], iu, iv), F[sv[dep]] / cell_area[k[dep], None])
-            nrm = surf.normal[k]
-            nrm = np.where((np.sum(nrm * d[sv], axis=1) > 0)[:, None], -nrm, nrm)  # the lit side
+                iu, iv = _texture_cell(surf, k[dep], x[dep], nrm[dep])
+                np.add.at(irr, (bid[sv[dep]], li[sv[dep]], k[dep], iu, iv),
+                          F[sv[dep]] / cell_area[k[dep], iu, iv, None])
             if track:
                 n_vert += _splat_near(acc, x, F[sv] * refl[k + 1], None, nrm, n_sig[sv], np.ones(sv.size, bool), c, b,
                                       kappa_cam, track, rng, bid[sv], li[sv], surf, pupil, reach, near_m, edges,
@@ -799,14 +834,13 @@ def _at_nodes(x: np.ndarray, wl: np.ndarray, wn: np.ndarray) -> np.ndarray:
     return x if len(wn) == len(wl) and np.array_equal(wn, wl) else np.interp(wn, wl, x)
 
 
-def _splat_surface(veil, who, x, k, d_in, F, refl, surf, pupil, reach, edges, c, omega, cam, width, height, cols,
+def _splat_surface(veil, who, x, k, lit, F, refl, surf, pupil, reach, edges, c, omega, cam, width, height, cols,
                    rows, n_out):
-    """``classes="all"``: the light a surface hit reflects towards the camera, splatted like the veil."""
+    """``classes="all"``: the light a surface hit reflects towards the camera, splatted like the veil
+    (``lit``: the normal of the side the light met)."""
     v = pupil - x
     s = np.linalg.norm(v, axis=1)
     wv = v / s[:, None]
-    nrm = surf.normal[k]
-    lit = np.where((np.sum(nrm * d_in, axis=1) > 0)[:, None], -nrm, nrm)
     cos_out = np.sum(lit * wv, axis=1)
     ok = (cos_out > 0) & (s > reach) & (s < edges[-1])
     o = np.flatnonzero(ok)

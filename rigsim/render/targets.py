@@ -26,7 +26,7 @@ import numpy as np
 
 from rigsim.errors import ConfigError
 from rigsim.render.variant import mitsuba
-from rigsim.scene.meshes import read_mesh
+from rigsim.scene.meshes import placed_mesh
 from rigsim.scene.surfaces import target_surfaces
 from rigsim.scene.types import Camera, Target
 
@@ -94,23 +94,12 @@ def flat_mesh(kind: str, to_world) -> dict:
 
 
 def file_mesh(path, to_world) -> dict:
-    """Mesh shape spec of a mesh file placed by the 4×4 ``to_world``, from the arrays of
-    :func:`rigsim.scene.meshes.read_mesh` (the reader the scene uses, so both see the same
-    triangles): ``{"type": MESH_TYPE, "vertex_positions": (n, 3), "faces": (m, 3),
-    "vertex_normals": (n, 3)}``.  The normals are the file's, else the angle-weighted ones
-    Mitsuba's own OBJ/PLY loader would compute (smooth shading, as before); they are mapped
-    by the inverse transpose of ``to_world``."""
-    mesh = read_mesh(path)
-    if len(mesh.faces) == 0:
-        raise ConfigError("mesh has no triangles to render", file=mesh.path,
-                          allowed="an OBJ/PLY with faces")
-    M = np.asarray(to_world, float)
-    V = mesh.vertices @ M[:3, :3].T + M[:3, 3]
-    N = mesh.vertex_normals() @ np.linalg.inv(M[:3, :3])   # (M⁻ᵀ n)ᵀ = nᵀ M⁻¹
-    length = np.linalg.norm(N, axis=1, keepdims=True)
-    N = np.divide(N, length, out=np.zeros_like(N), where=length > 0)
-    return {"type": MESH_TYPE, "vertex_positions": V, "faces": mesh.faces.astype(np.uint32),
-            "vertex_normals": N}
+    """Mesh shape spec of a mesh file placed by the 4×4 ``to_world``
+    (:func:`rigsim.scene.meshes.placed_mesh`, the arrays the fast engine draws too):
+    ``{"type": MESH_TYPE, "vertex_positions": (n, 3), "faces": (m, 3), "vertex_normals": (n, 3)}``
+    (smooth shading by the file's or the angle-weighted vertex normals)."""
+    V, F, N = placed_mesh(path, to_world)
+    return {"type": MESH_TYPE, "vertex_positions": V, "faces": F.astype(np.uint32), "vertex_normals": N}
 
 
 def _check_target(t: Target, i: int) -> None:

@@ -34,7 +34,7 @@ import numpy as np
 
 from rigsim.errors import ConfigError
 
-__all__ = ["MESH_SUFFIXES", "TriangleMesh", "read_mesh", "mesh_vertices"]
+__all__ = ["MESH_SUFFIXES", "TriangleMesh", "read_mesh", "mesh_vertices", "placed_mesh"]
 
 #: File types :func:`read_mesh` reads.
 MESH_SUFFIXES = (".obj", ".ply")
@@ -246,3 +246,19 @@ def mesh_vertices(path: str | Path) -> np.ndarray:
     """Vertex positions (n, 3) of an OBJ or PLY file (:func:`read_mesh`'s, read-only); a
     missing/unreadable file is a ConfigError."""
     return read_mesh(path).vertices
+
+
+def placed_mesh(path, to_world) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A mesh file placed in the scene by the 4×4 affine ``to_world``: ``(vertices (n, 3) m, faces (m, 3),
+    unit vertex normals (n, 3))`` in world coordinates — what both engines draw.  The normals are the
+    file's, else the angle-weighted ones (:meth:`TriangleMesh.vertex_normals`), mapped by the inverse
+    transpose of ``to_world``.  A mesh without triangles is a one-line :class:`ConfigError`."""
+    mesh = read_mesh(path)
+    if len(mesh.faces) == 0:
+        raise ConfigError("mesh has no triangles to draw", file=mesh.path, allowed="an OBJ/PLY with faces")
+    M = np.asarray(to_world, float)
+    V = mesh.vertices @ M[:3, :3].T + M[:3, 3]
+    N = mesh.vertex_normals() @ np.linalg.inv(M[:3, :3])   # (M⁻ᵀ n)ᵀ = nᵀ M⁻¹
+    length = np.linalg.norm(N, axis=1, keepdims=True)
+    N = np.divide(N, length, out=np.zeros_like(N), where=length > 0)
+    return V, np.asarray(mesh.faces, np.int64), N
