@@ -6,8 +6,8 @@ Metrics (keys of :func:`scene_metrics`):
 ``contrast_radiance``
     Michelson contrast of the target from the noise-free scene radiance (photopic
     luminance, CIE 1931 ȳ), sensor-independent: ColorChecker white (patch 19) against
-    black (patch 24); black/white disk against the surrounding water; slanted edge
-    white against black.
+    black (patch 24); black/white disk or a mesh (a rock) against the surrounding water;
+    slanted edge white against black.
 ``backscatter_share``
     Share of the target pixels' radiance that is light scattered by the water
     without reaching a surface (ground-truth split).
@@ -15,7 +15,7 @@ Metrics (keys of :func:`scene_metrics`):
     The same contrast from the developed image (linear sRGB luminance) of a sensor.
 ``snr_white``
     Temporal SNR of the sensor (EMVA 1288 model, green channel) at the mean signal of the
-    white patch (chart), the white disk, the water around a black disk, or the white half — the sensor's noise,
+    white patch (chart), the white disk or a mesh, the water around a black disk, or the white half — the sensor's noise,
     not the Monte Carlo noise of the render.
 ``snr_white_image``
     Mean/σ of the developed luminance over the same pixels (includes render noise and any
@@ -83,8 +83,8 @@ def target_masks(object_id: np.ndarray, legend: dict[str, str], target_kind: str
         black = next((n for n in names if n.startswith("black")), None)
         if white and black:
             out["signal"], out["reference"] = out[f"patch:{white}"], out[f"patch:{black}"]
-    elif target_kind in ("black-disk", "white-disk"):
-        disk = by_name.get("disk", target)
+    elif target_kind in ("black-disk", "white-disk", "mesh"):
+        disk = by_name.get("disk", target)  # (a mesh: the whole object, against the water around it)
         r = max(2, int(np.sqrt(disk.sum() / np.pi)))
         ring = _morph(disk, r, False) & ~_morph(disk, 2, False) & (object_id == 0)
         out["signal"], out["reference"] = _morph(disk, 1, True), ring

@@ -21,7 +21,8 @@ measures (:mod:`rigsim.metrics`):
     centre) over that at its centre (the 4 nearest / 10 % nearest): 1 is even, 0.5 is one stop
     darker in the corners.  Reported, not weighted (``evenness_cv`` carries it).
 ``snr_white``
-    EMVA 1288 SNR of the sensor at the white patch (or the subject) at the chosen exposure.
+    EMVA 1288 SNR of the sensor at the white patch (a white disk, a mesh subject: on the subject) at the
+    chosen exposure.
 ``delta_e_mean``
     Mean ΔE2000 of the chart patches after white balance (ColorChecker subjects).
 ``speck_light``
@@ -30,7 +31,8 @@ measures (:mod:`rigsim.metrics`):
 ``speck_count``
     Marine-snow specks visible in the frame (ibid.; grows with the image's size, so reported, not weighted).
 ``contrast``
-    Michelson contrast of the chart's white against its black patch in the radiance.
+    Michelson contrast of the chart's white against its black patch in the radiance (a disk, a mesh:
+    the subject against the water around it).
 ``iso``, ``flash_power``
     The auto exposure's ISO and the strobes' output as a fraction of full power.
 
@@ -63,11 +65,11 @@ METRICS = {
     "backscatter_share": ("backscatter share", "%", "lower"),
     "evenness_cv": ("unevenness (CV)", "", "lower"),
     "corner_ratio": ("corner / centre light", "", "higher"),
-    "snr_white": ("SNR at the white patch", "", "higher"),
+    "snr_white": ("SNR at the subject", "", "higher"),  # (a chart: its white patch)
     "delta_e_mean": ("mean ΔE2000", "", "lower"),
     "speck_light": ("light of lit specks", "%", "lower"),
     "speck_count": ("visible specks", "", "lower"),
-    "contrast": ("white/black contrast", "", "higher"),
+    "contrast": ("subject contrast", "", "higher"),  # (a chart: white against black patch)
     "iso": ("ISO", "", "lower"),
     "flash_power": ("strobe power used", "%", "lower"),
 }
@@ -86,7 +88,9 @@ class Setting:
     sensor
         Sensor name (``sensors/*.toml``) or path.
     subject
-        ``colorchecker`` or ``white-disk`` (:data:`SUBJECTS`; meshes once the fast engine draws them).
+        ``colorchecker``, ``white-disk`` (:data:`SUBJECTS`) or the path of an OBJ/PLY mesh (a rock, a
+        coral head: its own reflectance, 18 % grey unless the file says otherwise; the numbers are then
+        those of the subject against the water around it — no ΔE2000, no chart).
     subject_fill
         The subject is scaled to this fraction of the frame's width in water (0–1.5), as a diver
         frames it.
@@ -105,10 +109,15 @@ class Setting:
         d = self.distance_m
         if isinstance(d, bool) or not isinstance(d, (int, float)) or not (math.isfinite(d) and d > 0):
             raise ConfigError(f"distance must be > 0 m, got {d!r}", field="distance_m", allowed="> 0 m")
-        if self.subject not in SUBJECTS:
-            why = ("the optimiser images with the fast engine, which does not draw meshes yet"
-                   if self.subject_kind == "mesh" else f"unknown subject {self.subject!r}")
-            raise ConfigError(why, field="subject", allowed=", ".join(SUBJECTS))
+        if self.subject_kind == "mesh":
+            from rigsim.scene.meshes import read_mesh
+
+            if not len(read_mesh(self.subject).faces):  # (a missing or unreadable file: its own one-line error)
+                raise ConfigError("the mesh has no triangles", file=self.subject, field="subject",
+                                  allowed="an OBJ/PLY with faces")
+        elif self.subject not in SUBJECTS:
+            raise ConfigError(f"unknown subject {self.subject!r}", field="subject",
+                              allowed=", ".join(SUBJECTS) + ", or an .obj/.ply mesh")
         f = self.subject_fill
         if isinstance(f, bool) or not isinstance(f, (int, float)) or not 0 < f <= 1.5:
             raise ConfigError(f"subject fill must be in (0, 1.5], got {f!r}", field="subject_fill",
@@ -116,7 +125,7 @@ class Setting:
 
     @property
     def subject_kind(self) -> str:
-        return "mesh" if str(self.subject).lower().endswith((".obj", ".ply", ".gltf", ".glb")) else str(self.subject)
+        return "mesh" if str(self.subject).lower().endswith((".obj", ".ply")) else str(self.subject)
 
     def load_water(self):
         """The :class:`~rigsim.water.Water` (with its marine snow) of this setting."""

@@ -4,14 +4,14 @@
   its references and its limits); same inputs and outputs as :func:`rigsim.render.render`;
 * :mod:`rigsim.preview.forward` — small-angle forward scattering (blur kernels);
 * :mod:`rigsim.preview.backscatter` — the single-scattering integral along each ray;
-* :mod:`rigsim.preview.geometry` — ray casting, shadows (numpy, no Mitsuba).
+* :mod:`rigsim.preview.geometry` — ray casting, shadows (numpy; triangle meshes by Mitsuba's intersector).
 * :mod:`rigsim.preview.tiles` — tiles of rows on threads (how the per-pixel passes use every core).
 
 Camera rays, the phase function's tables and the daylight field come from the scene's
 optics layer (:mod:`rigsim.scene.optics`, :mod:`rigsim.scene.phase_tables`,
 :mod:`rigsim.scene.daylight_field`), shared with the renderer.
 
-Importing this package does not load Mitsuba.
+Importing this package does not load Mitsuba (a scene with a mesh target does, for its triangles).
 """
 
 from rigsim.preview.model import PREVIEW_LAYERS, RENDERER_NAME, band_edges, render_preview

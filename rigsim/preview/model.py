@@ -27,6 +27,13 @@ hemisphere about its normal (each × its height factor; unoccluded), seen throug
 Duntley's path radiance ``L_amb(v)(1 − e^{−(c − K v_y) s})``, so a black target's contrast is
 ``−e^{−c s}`` along a horizontal line of sight, as in the renderer.
 
+Targets are flat pieces or triangle meshes (:mod:`rigsim.preview.geometry`): a mesh sample has its
+own interpolated normal (smooth shading, as the renderer's), for the strobes' cos θ, their shadows
+(a rock shadows itself) and the diffuse daylight, which for meshes is interpolated on a grid of
+normals (:data:`_NORMAL_GRID`).  Checked in ``tests/preview/test_meshes.py``: a disk of 720
+triangles images as the flat disk (every layer within 0.5 %), the shipped rock in coastal water
+agrees with Monte Carlo (unscattered light per pixel within ±1.5 %, 1st–99th percentile).
+
 What is not in it: multiple wide-angle scattering (the "glow" of turbid water
 beyond a few optical depths), light scattered by more than the forward cut-off
 angle that then lights the target, interreflections, port optics (radiance is the

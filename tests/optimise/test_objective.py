@@ -82,8 +82,32 @@ def test_weights_and_their_errors():
 
 
 @pytest.mark.parametrize("kw", [dict(distance_m=0), dict(distance_m=float("inf")), dict(distance_m="2"),
-                                dict(subject_fill=0), dict(subject_fill=2.0), dict(subject="data/meshes/rock.obj"),
+                                dict(subject_fill=0), dict(subject_fill=2.0), dict(subject="data/meshes/missing.obj"),
                                 dict(subject="bogus")])
 def test_bad_settings_are_refused(kw):
     with pytest.raises(ConfigError):
         Setting(**kw)
+
+
+def test_a_mesh_subject_is_measured_as_the_shape_it_is(tmp_path):
+    """A disk given as a mesh (a fan of 720 triangles) and the white disk: the same light on the subject
+    (evenness, corner ratio: reflectance cancels); the mesh has the subject's numbers but no ΔE2000; and
+    the shipped rock is measured."""
+    from rigsim.config.rigdoc import RigDoc
+    from rigsim.optimise.objective import evaluate
+
+    a = np.linspace(0.0, 2 * np.pi, 720, endpoint=False)
+    with open(tmp_path / "disk.obj", "w") as f:
+        f.write("v 0 0 0\n")
+        f.writelines(f"v {math.cos(t):.12g} {math.sin(t):.12g} 0\n" for t in a)
+        f.writelines(f"f 1 {2 + i} {2 + (i + 1) % 720}\n" for i in range(720))
+    rig = RigDoc.load("rigs/twin-strobes-45-wide.toml").rig()
+    fid = Fidelity("test", 96, False)
+    disk = evaluate(rig, Setting(water="coastal", distance_m=1.5, subject="white-disk"), fid).metrics
+    mesh = evaluate(rig, Setting(water="coastal", distance_m=1.5, subject=str(tmp_path / "disk.obj")), fid).metrics
+    for k in ("evenness_cv", "corner_ratio"):
+        assert mesh[k] == pytest.approx(disk[k], rel=0.01), k
+    rock = evaluate(rig, Setting(water="coastal", distance_m=1.5, subject="data/meshes/rock.obj"), fid).metrics
+    for m in (mesh, rock):
+        assert {"backscatter_share", "evenness_cv", "corner_ratio", "snr_white", "contrast"} <= set(m)
+        assert "delta_e_mean" not in m and 0 < m["backscatter_share"] < 1
