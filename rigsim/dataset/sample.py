@@ -190,9 +190,15 @@ def compute_sample(args: tuple[DatasetSpec, int, int, dict | None]) -> dict:
         rec.update(override)
     scene, water = build_sample_scene(spec, rec)
     snow = getattr(water, "particles", None) is not None
-    si = render(scene, width=spec.width, height=spec.height, spp=spec.spp, seed=rec["render_seed"],
-                wavelengths_nm=spec.wavelengths_nm,
-                layers=("range_m", "object_id", "clear", "backscatter") + (("particles", "particle_id") if snow else ()))
+    layers = ("range_m", "object_id", "clear", "direct", "backscatter") + (("particles", "particle_id") if snow else ())
+    if spec.engine == "fast":
+        from rigsim.preview import render_preview
+
+        si = render_preview(scene, width=spec.width, height=spec.height, seed=rec["render_seed"],
+                            wavelengths_nm=spec.wavelengths_nm, layers=layers)
+    else:
+        si = render(scene, width=spec.width, height=spec.height, spp=spec.spp, seed=rec["render_seed"],
+                    wavelengths_nm=spec.wavelengths_nm, layers=layers)
     sensor = load_sensor(rec["sensor"])
     lens = lens_for(si)
     exposure = auto_exposure(si, sensor, lens=lens)
@@ -214,6 +220,8 @@ def compute_sample(args: tuple[DatasetSpec, int, int, dict | None]) -> dict:
     finite = np.isfinite(rng_m)
     trans = np.where(finite[..., None], np.exp(-np.where(finite, rng_m, 0)[..., None] * c_ch), 0.0).astype(np.float32)
     backscatter = _noise_free_linear(si, sensor, exposure, gains, under.ccm, layer="backscatter").astype(np.float32)
+    direct = _noise_free_linear(si, sensor, exposure, gains, under.ccm, layer="direct").astype(np.float32)
+    total = _noise_free_linear(si, sensor, exposure, gains, under.ccm).astype(np.float32)
     legend = si.meta.get("object_ids", {})
     extra = {}
     if snow:  # the particles' instance masks and their (net) light through the same processing
@@ -227,17 +235,31 @@ def compute_sample(args: tuple[DatasetSpec, int, int, dict | None]) -> dict:
         extra["specks"] = visible_specks(luminance(extra["particles_linear"]), extra["particle_id"], ref).astype(np.uint32)
         rec["particles"] = {**rec["particles"], **{k: v for k, v in si.meta["particles"].items() if k != "field"},
                             "field": si.meta["particles"]["field"]}
+    # the light that reached a surface after forward (small-angle) scattering on a leg: the rest of the
+    # noise-free image once the unscattered light, the backscatter and the particles' own are taken out
+    forward = total - direct - backscatter - extra.get("particles_linear", 0.0)
+    from rigsim.dataset.formats import categories_for, coco_annotations, depth_maps, instances, intrinsics, pose
+
+    rng_m, z_m = depth_maps(rng_m, scene.camera)
+    inst, inst_list = instances(si.layers["object_id"], legend, scene.targets)
+    cats = categories_for(spec.kinds, spec.meshes)
+    anns = coco_annotations(inst, inst_list, cats, index, extra.get("specks"))
+    camera = {**intrinsics(scene.camera, spec.width, spec.height), **pose(scene.camera)}
     rec.update({
+        "engine": spec.engine, "instances": inst_list,
         "water_description": water.describe(), "c_550_per_m": float(water.c_per_m(550.0)),
         "channel_attenuation_per_m": [float(x) for x in c_ch],
         "exposure": exposure.describe(), "wb_gains": [float(g) for g in gains],
         "ccm": np.asarray(under.ccm).tolist(), "object_ids": legend,
-        "render": {"width": spec.width, "height": spec.height, "spp": spec.spp,
+        "render": {"engine": spec.engine, "width": spec.width, "height": spec.height,
+                   "spp": spec.spp if spec.engine == "mitsuba" else None,
                    "wavelengths_nm": list(spec.wavelengths_nm), "variant": si.meta.get("variant"),
                    "wall_time_s": si.meta.get("wall_time_s")},
     })
     rec["wall_time_s"] = time.perf_counter() - t0
     return {"record": rec, "image_srgb": under.srgb, "image_linear": np.asarray(under.linear_rgb, np.float32),
             "clean_srgb": clean.srgb, "clean_linear": np.asarray(clean.linear_rgb, np.float32),
-            "range_m": rng_m, "transmission": trans, "backscatter_linear": backscatter,
-            "object_id": np.asarray(si.layers["object_id"], np.uint16), "capture": under, **extra}
+            "range_m": rng_m, "z_m": z_m, "transmission": trans, "backscatter_linear": backscatter,
+            "direct_linear": direct, "forward_linear": forward.astype(np.float32),
+            "object_id": np.asarray(si.layers["object_id"], np.uint16), "instances": inst,
+            "annotations": anns, "categories": cats, "camera": camera, "capture": under, **extra}

@@ -6,7 +6,9 @@
     name = "underwater-training"
     width = 128
     height = 96
-    spp = 64
+    spp = 64                                      # Monte Carlo paths per pixel (engine "mitsuba")
+    engine = "mitsuba"                            # or "fast": the fast engine (photograph-sized samples
+                                                  # in seconds; rigsim.preview), Monte Carlo noise-free
     wavelengths = "400:700:10"
 
     [water]
@@ -88,6 +90,7 @@ class DatasetSpec:
     reflectances: str
     bottom_probability: float
     bottom_altitude_m: tuple[float, float]
+    engine: str = "mitsuba"
 
     def describe(self) -> dict:
         from dataclasses import asdict
@@ -140,6 +143,7 @@ class DatasetTable(FileModel):
     width: Annotated[Int, Field(ge=8, le=4096)] = 128
     height: Annotated[Int, Field(ge=8, le=4096)] = 96
     spp: Annotated[Int, Field(ge=1, le=1 << 16)] = 64
+    engine: Literal["mitsuba", "fast"] = "mitsuba"
     wavelengths: WavelengthGrid = tuple(float(x) for x in parse_wavelength_range("400:700:10"))
 
 
@@ -293,4 +297,4 @@ def load_dataset_spec(path: str | Path) -> DatasetSpec:
         particle_probability=wt.particle_probability, rigs=tuple(rigs), power_fraction=rg.power_fraction,
         sensors=sn.names, noise=sn.noise, distance_m=dist, objects=(int(sc.objects[0]), int(sc.objects[1])),
         kinds=sc.kinds, meshes=tuple(meshes), size_fraction=sc.size_fraction, reflectances=sc.reflectances,
-        bottom_probability=sc.bottom_probability, bottom_altitude_m=sc.bottom_altitude_m)
+        bottom_probability=sc.bottom_probability, bottom_altitude_m=sc.bottom_altitude_m, engine=ds.engine)
