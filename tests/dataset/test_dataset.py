@@ -49,7 +49,18 @@ def spec_file(tmp_path, noise="true", **replace):
 
 
 def read(d, name):
-    return tifffile.imread(d / name)
+    """A float layer of a sample by its name, read with OpenEXR (:func:`rigsim.dataset.formats.read_exr`)."""
+    from rigsim.dataset.formats import read_exr
+
+    if name == "range_m":
+        return read_exr(d / "depth_range_m.exr")["Z"]
+    if name == "z_m":
+        return read_exr(d / "depth_z_m.exr")["Z"]
+    if name in ("image_linear", "clean_linear"):
+        ch = read_exr(d / f"{name}.exr")
+        return np.stack([ch[c] for c in "RGB"], axis=-1)
+    ch = read_exr(d / "layers.exr")
+    return np.stack([ch[f"{name}.{c}"] for c in "RGB"], axis=-1)
 
 
 @pytest.mark.render
@@ -64,11 +75,12 @@ def test_four_samples_layers_consistent(tmp_path):
 
     for i in range(4):
         d = out / "samples" / f"{i:06d}"
-        for f in ("image.png", "raw.dng", "clean.png", "range_m.tiff", "transmission.tiff",
-                  "backscatter_linear.tiff", "mask.png", "record.json", "image_linear.tiff", "clean_linear.tiff"):
+        for f in ("image.png", "raw.dng", "clean.png", "depth_range_m.exr", "depth_z_m.exr", "layers.exr",
+                  "mask.png", "record.json", "image_linear.exr", "clean_linear.exr", "instances.png",
+                  "annotations.json", "labels.txt", "camera.json", "depth_range_mm.png", "depth_z_mm.png"):
             assert (d / f).is_file(), f
         rec = json.loads((d / "record.json").read_text())
-        rng_m, trans = read(d, "range_m.tiff"), read(d, "transmission.tiff")
+        rng_m, trans = read(d, "range_m"), read(d, "transmission")
         c = np.array(rec["channel_attenuation_per_m"])
         fin = np.isfinite(rng_m)
         # transmission is exp(-c_channel * range) with the water's c weighted by the channel QE
@@ -91,14 +103,14 @@ def test_four_samples_layers_consistent(tmp_path):
         assert set(np.unique(mask[mask > 0]).tolist()) <= {int(k) for k in rec["object_ids"]}
     # vacuum: the underwater image is the clean image (no noise in this spec; Monte Carlo tolerance)
     d0 = out / "samples" / "000000"
-    img, clean = read(d0, "image_linear.tiff"), read(d0, "clean_linear.tiff")
+    img, clean = read(d0, "image_linear"), read(d0, "clean_linear")
     assert np.mean(img) == pytest.approx(np.mean(clean), rel=0.05)
-    assert np.all(np.abs(read(d0, "transmission.tiff")[np.isfinite(read(d0, "range_m.tiff"))] - 1) < 1e-6)
-    assert np.abs(read(d0, "backscatter_linear.tiff")).max() < 1e-6
+    assert np.all(np.abs(read(d0, "transmission")[np.isfinite(read(d0, "range_m"))] - 1) < 1e-6)
+    assert np.abs(read(d0, "backscatter")).max() < 1e-6
     # in real water the clean image is brighter than the underwater one at the objects
     d1 = out / "samples" / "000001"
     m1 = iio.imread(d1 / "mask.png") > 0
-    assert read(d1, "clean_linear.tiff")[m1].mean() > read(d1, "image_linear.tiff")[m1].mean() * 0.9
+    assert read(d1, "clean_linear")[m1].mean() > read(d1, "image_linear")[m1].mean() * 0.9
 
 
 @pytest.mark.render
@@ -113,7 +125,7 @@ def test_deterministic_across_workers(tmp_path):
             r.pop("wall_time_s")
             r["render"].pop("wall_time_s")
         assert ra == rb
-        for f in ("image.png", "mask.png", "range_m.tiff"):
+        for f in ("image.png", "mask.png", "depth_range_mm.png", "instances.png", "labels.txt", "annotations.json"):
             assert (a / "samples" / f"{i:06d}" / f).read_bytes() == (b / "samples" / f"{i:06d}" / f).read_bytes()
 
 
@@ -158,13 +170,13 @@ def test_marine_snow_samples_carry_the_particles_ground_truth(tmp_path):
         seeds.append(rec["particles"]["seed"])
         ids = tifffile.imread(d / "particle_id.tiff")
         specks = tifffile.imread(d / "specks.tiff")
-        light = tifffile.imread(d / "particles_linear.tiff")
+        light = read(d, "particles")
         assert ids.dtype == np.uint32 and ids.shape == (48, 72) and light.shape == (48, 72, 3)
         assert ids.max() <= rec["particles"]["count"] and (ids > 0).mean() > 0.5  # at 72×48 particles are everywhere
         # the specks that show are a few of them, bright: each labelled pixel holds at least 5 % of the image's
         # median luminance of particle light, the pixels outside the mask less
         lum = light @ np.array([0.2126, 0.7152, 0.0722])
-        ref = np.median(tifffile.imread(d / "image_linear.tiff") @ np.array([0.2126, 0.7152, 0.0722]))
+        ref = np.median(read(d, "image_linear") @ np.array([0.2126, 0.7152, 0.0722]))
         assert 0 < (specks > 0).sum() < 0.2 * specks.size
         assert np.all(lum[specks > 0] >= 0.05 * ref * 0.999) and np.all(lum[(specks == 0) & (ids > 0)] < 0.05 * ref)
         assert np.all((specks == ids) | (specks == 0))
