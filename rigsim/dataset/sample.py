@@ -10,6 +10,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -90,7 +91,109 @@ def draw_sample(spec: DatasetSpec, index: int, seed: int) -> dict:
     if spec.particle_probability > 0 and rng.random() < spec.particle_probability:
         rec["particles"] = {"level": str(rng.choice(spec.particle_levels)),
                             "seed": int(rng.integers(0, 2**31 - 1))}
+    sb = spec.seabed
+    if sb and rng.random() < sb["probability"]:  # (after the snow: the same rule)
+        rec["seabed"] = _draw_seabed(sb, spec, rng)
+        rec.pop("bottom_altitude_m", None)
     return rec
+
+
+def _draw_seabed(sb: dict, spec: DatasetSpec, rng) -> dict:
+    """A seabed scene's choices: the height field, the rig's altitude and pitch, and where (pixel
+    positions, fractions of the image) the objects, rocks and rubble rest, with their poses."""
+    meshes = list(spec.meshes) or [_ROCK]
+    wl, lib, labels = reflectance_library(spec.reflectances)
+
+    def placed(kind, size_m, mesh=None):
+        j = int(rng.integers(len(labels)))
+        o = {"kind": kind, "size_m": size_m, "at_px": [float(rng.uniform(0.08, 0.92)), float(rng.uniform(0.25, 0.95))],
+             "yaw_deg": float(rng.uniform(-180, 180)), "pitch_deg": float(rng.uniform(-90, 90)),
+             "tilt_deg": float(rng.uniform(-180, 180)), "bury": float(rng.uniform(0.1, 0.4))}
+        if mesh:
+            o["mesh"] = mesh
+            o["reflectance"] = {"library": spec.reflectances, "index": j, "label": labels[j]}
+        return o
+
+    rocks = [placed("mesh", _loguniform(rng, sb["rock_size_m"]), str(rng.choice(meshes)))
+             for _ in range(int(rng.integers(sb["rocks"][0], sb["rocks"][1] + 1)))]
+    rubble = [placed("mesh", _loguniform(rng, sb["rubble_size_m"]), str(rng.choice(meshes)))
+              for _ in range(int(rng.integers(sb["rubble"][0], sb["rubble"][1] + 1)))]
+    return {"field": {"seed": int(rng.integers(0, 2**31 - 1)), "extent_m": float(sb["extent_m"]),
+                      "cells": int(sb["cells"]),
+                      "ripple_wavelength_m": _uniform(rng, sb["ripple_wavelength_m"]),
+                      "ripple_height_m": _uniform(rng, sb["ripple_height_m"]),
+                      "ripple_direction_deg": float(rng.uniform(0, 180)),
+                      "relief_m": _uniform(rng, sb["relief_m"]), "relief_scale_m": float(rng.uniform(1.5, 4.0)),
+                      "slope_deg": _uniform(rng, sb["slope_deg"]),
+                      "slope_direction_deg": float(rng.uniform(0, 360))},
+            "altitude_m": _uniform(rng, sb["altitude_m"]), "camera_pitch_deg": _uniform(rng, sb["camera_pitch_deg"]),
+            "rocks": rocks, "rubble": rubble}
+
+
+_ROCK = str(Path(__file__).resolve().parents[2] / "data" / "meshes" / "rock.obj")
+
+
+def pitched_rig(rig, pitch_deg: float):
+    """The rig turned ``pitch_deg`` down about its camera's right axis through the entrance pupil (camera
+    and lights together, as a diver tilts the whole rig)."""
+    right, _, _ = (np.asarray(a, float) for a in rig.camera.frame())
+    pupil = np.asarray(rig.camera.position_m, float)
+    a = math.radians(-pitch_deg)  # right = forward × up: a negative turn about it tips forward down
+    K = np.array([[0, -right[2], right[1]], [right[2], 0, -right[0]], [-right[1], right[0], 0]])
+    R = np.eye(3) + math.sin(a) * K + (1 - math.cos(a)) * K @ K  # Rodrigues
+    t = lambda v: tuple(float(x) for x in v)  # noqa: E731
+    cam = dataclasses.replace(rig.camera, forward=t(R @ np.asarray(rig.camera.forward, float)),
+                              up=t(R @ np.asarray(rig.camera.up, float)))
+    lights = tuple(dataclasses.replace(l, position_m=t(pupil + R @ (np.asarray(l.position_m, float) - pupil)),
+                                       aim=t(R @ np.asarray(l.aim, float))) for l in rig.lights)
+    return dataclasses.replace(rig, camera=cam, lights=lights)
+
+
+def _seabed_targets(rec: dict, camera, spec: DatasetSpec) -> list:
+    """The seabed target and the objects resting on it (targets in camera terms: distance along the axis
+    and offset of their centres)."""
+    from rigsim.scene.optics import WATER_INDEX, camera_rays
+    from rigsim.scene.seabed import SeabedSpec, seabed_mesh_file, seabed_points
+    from rigsim.scene.surfaces import target_surfaces
+    from rigsim.scene.types import Target
+
+    sb = rec["seabed"]
+    field = SeabedSpec(**sb["field"])
+    bed = Target(kind="seabed", distance_m=sb["altitude_m"], mesh_path=str(seabed_mesh_file(field)))
+    surf = target_surfaces(bed, camera)[0]
+    right, up, fwd = (np.asarray(a, float) for a in camera.frame())
+    pupil = np.asarray(camera.position_m, float)
+    world_up = np.array([0.0, 1.0, 0.0])
+    wl_lib, lib, _ = reflectance_library(spec.reflectances)
+    # the drawn objects stand on the seabed where the pixel at their offset looks (charts and disks upright,
+    # facing the camera as drawn); rocks and rubble lie in it, partly buried
+    objects = [dict(o, at_px=[0.5 + 0.5 * o["offset_frac"][0], 0.5 - 0.5 * o["offset_frac"][1]], bury=-0.5 * 0.75,
+                    size_m=None) for o in rec["objects"]]
+    things = objects + list(sb["rocks"]) + list(sb["rubble"])
+    out = [bed]
+    if not things:
+        return out
+    px = np.array([o["at_px"] for o in things])
+    o_, d_ = camera_rays(camera, px[:, 0], px[:, 1], n_outside=WATER_INDEX)
+    hits = seabed_points(field, surf.matrix(), o_, d_)
+    for o, p in zip(things, hits):
+        if not np.all(np.isfinite(p)):
+            continue  # (that pixel sees past the seabed: nothing placed there)
+        size = o["size_m"]
+        if size is None:  # a drawn object: its size a fraction of the field's width where it stands
+            from rigsim.scene.optics import field_width_m
+
+            size = o["size_fraction"] * field_width_m(camera, float((p - pupil) @ fwd))
+        c = p + world_up * (0.5 - o["bury"]) * size
+        rel = c - pupil
+        refl_wl, refl = (), ()
+        if "reflectance" in o:
+            refl_wl, refl = tuple(wl_lib.tolist()), tuple(np.clip(lib[o["reflectance"]["index"]], 0, 1).tolist())
+        out.append(Target(kind=o["kind"], distance_m=max(float(rel @ fwd), 1e-3), size_m=size,
+                          mesh_path=o.get("mesh"), offset_m=(float(rel @ right), float(rel @ up)),
+                          yaw_deg=o["yaw_deg"], pitch_deg=o["pitch_deg"], tilt_deg=o["tilt_deg"],
+                          reflectance_wavelength_nm=refl_wl, reflectance=refl))
+    return out
 
 
 def _water(rec: dict):
@@ -120,12 +223,16 @@ def build_sample_scene(spec: DatasetSpec, rec: dict):
                    for l in rig.lights)
     rig = dataclasses.replace(rig, lights=lights)
     water = _water(rec)
+    if "seabed" in rec:
+        rig = pitched_rig(rig, rec["seabed"]["camera_pitch_deg"])
     cam = rig.camera
     half_x = math.tan(math.radians(fov_water_deg(cam)) / 2)
     half_y = half_x * cam.sensor_height_mm / cam.sensor_width_mm
     wl_lib, lib, _ = reflectance_library(spec.reflectances)
     targets = []
-    for o in rec["objects"]:
+    if "seabed" in rec:
+        targets = _seabed_targets(rec, cam, spec)
+    for o in ([] if "seabed" in rec else rec["objects"]):
         d = o["distance_m"]
         refl_wl, refl = (), ()
         if "reflectance" in o:

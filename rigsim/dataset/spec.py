@@ -91,6 +91,7 @@ class DatasetSpec:
     bottom_probability: float
     bottom_altitude_m: tuple[float, float]
     engine: str = "mitsuba"
+    seabed: dict | None = None  # the [seabed] table's ranges (None: no seabed scenes)
 
     def describe(self) -> dict:
         from dataclasses import asdict
@@ -200,6 +201,27 @@ class SceneRanges(FileModel):
         return v
 
 
+class SeabedRanges(FileModel):
+    """``[seabed]``: with ``probability`` a sample is a seabed scene (:mod:`rigsim.scene.seabed`): the rig
+    ``altitude_m`` above a sand height field, turned ``camera_pitch_deg`` down; the scene's objects,
+    ``rocks`` and ``rubble`` (meshes of ``[scene] meshes``, default the shipped rock, in random poses)
+    rest on it where random pixels' rays meet it."""
+
+    probability: _Probability = 0.0
+    altitude_m: value_range(positive=True) = (0.8, 2.5)
+    camera_pitch_deg: value_range(lo=0.0, hi=89.0) = (20.0, 60.0)
+    ripple_wavelength_m: value_range(lo=0.05, hi=5.0) = (0.15, 0.4)
+    ripple_height_m: value_range(lo=0.0, hi=0.5) = (0.0, 0.04)
+    relief_m: value_range(lo=0.0, hi=2.0) = (0.0, 0.25)
+    slope_deg: value_range(lo=0.0, hi=30.0) = (0.0, 10.0)
+    rocks: value_range(lo=0, hi=50, integer=True) = (0, 4)
+    rock_size_m: value_range(positive=True, hi=5.0) = (0.15, 0.6)
+    rubble: value_range(lo=0, hi=200, integer=True) = (0, 25)
+    rubble_size_m: value_range(positive=True, hi=1.0) = (0.03, 0.1)
+    extent_m: Annotated[Real, Field(ge=2.0, le=100.0)] = 12.0
+    cells: Annotated[Int, Field(ge=16, le=2048)] = 384
+
+
 class DatasetFile(FileModel):
     """A whole dataset spec (see the module docstring)."""
 
@@ -208,6 +230,7 @@ class DatasetFile(FileModel):
     rig: RigRanges = RigRanges()
     sensor: SensorTable = SensorTable()
     scene: SceneRanges = SceneRanges()
+    seabed: SeabedRanges = SeabedRanges()
 
 
 def _resolve(p: str, base: Path) -> str:
@@ -227,6 +250,15 @@ def load_dataset_spec(path: str | Path) -> DatasetSpec:
     f = load_file(DatasetFile, path)
     base = path.parent
     ds, wt, rg, sn, sc = f.dataset, f.water, f.rig, f.sensor, f.scene
+    sb = f.seabed
+    if sb.probability > 0 and sb.ripple_height_m[1] > 0:  # a grid too coarse for the shortest ripples: now
+        from rigsim.scene.seabed import SeabedSpec
+
+        try:
+            SeabedSpec(extent_m=sb.extent_m, cells=sb.cells, ripple_wavelength_m=sb.ripple_wavelength_m[0],
+                       ripple_height_m=sb.ripple_height_m[1])
+        except ConfigError as exc:
+            raise ConfigError(exc.message, file=path, field=exc.field, allowed=exc.allowed) from None
 
     from rigsim.water.presets import preset
 
@@ -297,4 +329,5 @@ def load_dataset_spec(path: str | Path) -> DatasetSpec:
         particle_probability=wt.particle_probability, rigs=tuple(rigs), power_fraction=rg.power_fraction,
         sensors=sn.names, noise=sn.noise, distance_m=dist, objects=(int(sc.objects[0]), int(sc.objects[1])),
         kinds=sc.kinds, meshes=tuple(meshes), size_fraction=sc.size_fraction, reflectances=sc.reflectances,
-        bottom_probability=sc.bottom_probability, bottom_altitude_m=sc.bottom_altitude_m, engine=ds.engine)
+        bottom_probability=sc.bottom_probability, bottom_altitude_m=sc.bottom_altitude_m, engine=ds.engine,
+        seabed=sb.model_dump() if sb.probability > 0 else None)

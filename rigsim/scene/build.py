@@ -154,7 +154,7 @@ def build_scene(rig: Rig, water: Water | str | None, target: str | Path | Target
         tgt = make_target(target, d, size_m=size_m, tilt_deg=tilt_deg, reflectance=reflectance)
     d = tgt.distance_m  # > 0: a Target cannot be built behind the camera
     reach = port_reach_m(rig.camera)
-    if tgt.kind == "bottom":
+    if tgt.kind in ("bottom", "seabed"):
         floor = max(reach, rig.camera.housing_radius_m)
         if d <= floor:
             raise ConfigError(f"bottom at {d:g} m below the pupil cuts through the housing/port",

@@ -410,7 +410,7 @@ def _caustics(scene: Scene, seed: int) -> tuple[Caustic, ...]:
     fwd = scene.camera.frame()[2]
     levels = {round(y0, 3)}
     for t in scene.targets:  # one pattern at each target's centre height (focus changes with depth)
-        levels.add(round(y0 - t.distance_m if t.kind == "bottom" else y0 + t.distance_m * float(fwd[1]), 3))
+        levels.add(round(y0 - t.distance_m if t.kind in ("bottom", "seabed") else y0 + t.distance_m * float(fwd[1]), 3))
     out = []
     for y_lev in sorted(levels):
         depth = y_surf - y_lev

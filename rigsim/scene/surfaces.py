@@ -29,6 +29,7 @@ with a flat reflectance given by the caller (default 18 % grey) or a CSV.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from pathlib import Path
 from typing import Literal
 
 import numpy as np
@@ -49,7 +50,7 @@ __all__ = ["TARGET_KINDS", "COLORCHECKER_WIDTH_M", "COLORCHECKER_HEIGHT_M", "COL
            "COLORCHECKER_PITCH_M", "DEFAULT_SIZE_M", "DEFAULT_TILT_DEG", "Surface", "target_surfaces"]
 
 #: Built-in target kinds (besides ``mesh``).
-TARGET_KINDS = ("colorchecker", "black-disk", "white-disk", "slanted-edge", "bottom")
+TARGET_KINDS = ("colorchecker", "black-disk", "white-disk", "slanted-edge", "bottom", "seabed")
 
 COLORCHECKER_WIDTH_M = 0.2794   #: Classic ColorChecker width, 11 in (m).
 COLORCHECKER_HEIGHT_M = 0.2159  #: Classic ColorChecker height, 8.5 in (m).
@@ -59,7 +60,7 @@ _PATCH_RAISE_M = 0.0005         #: Patches stand this far in front of the chart 
 
 #: Default ``size_m`` per kind (m): chart width, disk diameter, edge-target side, bottom side.
 DEFAULT_SIZE_M = {"colorchecker": COLORCHECKER_WIDTH_M, "black-disk": 0.30, "white-disk": 0.30,
-                  "slanted-edge": 0.30, "bottom": 100.0}
+                  "slanted-edge": 0.30, "bottom": 100.0, "seabed": 12.0}
 
 #: Default tilt about the optical axis (deg): 5° for the slanted edge (ISO 12233).
 DEFAULT_TILT_DEG = {"slanted-edge": 5.0}
@@ -170,7 +171,7 @@ def target_surfaces(target: Target, camera: Camera) -> tuple[Surface, ...]:
     tuple of Surface
         Object ids 1…n in order.  ColorChecker: the chart body then the 24
         patches (chart order); disks: one disk; slanted edge: ``black`` (left)
-        and ``white`` (right); bottom: one rectangle; mesh: one mesh.
+        and ``white`` (right); bottom: one rectangle; seabed, mesh: one mesh.
     """
     right, up, fwd = camera.frame()
     pupil = np.asarray(camera.position_m, float)
@@ -219,6 +220,29 @@ def target_surfaces(target: Target, camera: Camera) -> tuple[Surface, ...]:
         c = pupil - target.distance_m * world_up
         return (_flat_piece("bottom", "rectangle", c, bu, bv, world_up, size, size,
                             _target_reflectance(target, reflectance_sand_assumed()), 1),)
+    if kind == "seabed":
+        from rigsim.scene.seabed import AHEAD_FRACTION, SeabedSpec, seabed_mesh_file
+
+        path = target.mesh_path or str(seabed_mesh_file(SeabedSpec()))
+        verts = read_mesh(path).vertices
+        extent = float(np.max((verts.max(axis=0) - verts.min(axis=0))[[0, 2]]))
+        world_up = np.array([0.0, 1.0, 0.0])
+        bu = right - world_up * np.dot(right, world_up)
+        if np.linalg.norm(bu) < 1e-6:
+            bu = np.array([1.0, 0.0, 0.0])
+        bu = bu / np.linalg.norm(bu)
+        ahead = np.cross(bu, world_up)  # the seabed's +z: horizontal, towards where the camera looks
+        if np.dot(ahead, fwd) < 0:
+            ahead = -ahead
+        m = np.eye(4)
+        m[:3, 0], m[:3, 1], m[:3, 2] = bu, world_up, np.cross(bu, world_up)
+        m[:3, 3] = pupil - target.distance_m * world_up + AHEAD_FRACTION * extent * ahead
+        return (Surface(name="seabed", shape="mesh", center_m=_t3(m[:3, 3]), u_axis=_t3(bu), v_axis=_t3(ahead),
+                        normal=_t3(world_up), size_m=(extent, extent),
+                        wavelength_nm=tuple(REFLECTANCE_WAVELENGTHS_NM.tolist()),
+                        reflectance=tuple(_target_reflectance(target, reflectance_sand_assumed()).tolist()),
+                        object_id=1, mesh_path=str(Path(path).resolve()),
+                        to_world=tuple(tuple(float(x) for x in row) for row in m)),)
     if kind == "mesh":
         if target.mesh_path is None:
             raise ConfigError("a mesh target needs mesh_path", field="target")

@@ -32,7 +32,7 @@ from rigsim.water.model import Water
 __all__ = ["Port", "Camera", "BeamPattern", "Light", "Rig", "Target", "Daylight", "Scene", "unit",
            "TARGET_KIND_NAMES", "LIGHT_KINDS", "DAYLIGHT_MODELS", "WAVE_KINDS"]
 
-TargetKind = Literal["colorchecker", "black-disk", "white-disk", "slanted-edge", "bottom", "mesh"]
+TargetKind = Literal["colorchecker", "black-disk", "white-disk", "slanted-edge", "bottom", "seabed", "mesh"]
 LightKind = Literal["strobe", "continuous"]
 DaylightModel = Literal["kd", "monte-carlo"]
 WaveKind = Literal["flat", "sines", "pierson-moskowitz"]
@@ -311,15 +311,18 @@ class Target:
     ----------
     kind
         ``"colorchecker"``, ``"black-disk"``, ``"white-disk"``, ``"slanted-edge"``,
-        ``"bottom"`` (sand plane) or ``"mesh"`` (:data:`TARGET_KIND_NAMES`).
+        ``"bottom"`` (sand plane), ``"seabed"`` (a procedural height field of sand:
+        :mod:`rigsim.scene.seabed`) or ``"mesh"`` (:data:`TARGET_KIND_NAMES`).
     distance_m
         Distance from the entrance pupil along the optical axis to the target's
-        centre (m, > 0); for ``bottom`` the camera's altitude above it.
+        centre (m, > 0); for ``bottom`` and ``seabed`` the camera's altitude above it.
     size_m
         Characteristic size: chart width, disk diameter, edge-target width,
         mesh scale (m, > 0).
     mesh_path
-        OBJ/PLY file for ``mesh`` (required for it; read when rendered).
+        OBJ/PLY file for ``mesh`` (required for it; read when rendered); for ``seabed``
+        the height field's mesh (:func:`rigsim.scene.seabed.seabed_mesh_file`; none: the
+        default :class:`~rigsim.scene.seabed.SeabedSpec`), in its own frame (y up).
     reflectance_wavelength_nm, reflectance
         Reflectance spectrum for disks, meshes and the bottom: wavelengths (nm)
         strictly increasing, values >= 0 (0…1; the renderers refuse values above 1),

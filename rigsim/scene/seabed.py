@@ -1,0 +1,180 @@
+"""A procedural seabed: a height field of sand with ripples, undulating relief and a slope, as a
+triangle mesh (the kind ``seabed`` of :class:`~rigsim.scene.types.Target`).
+
+Heights (m, y up; x and z horizontal in the seabed's own frame, centred on the patch):
+
+* **slope**: a plane rising ``tan(slope_deg)`` per metre towards ``slope_direction_deg``;
+* **relief**: the sum of :data:`RELIEF_MODES` cosine waves with seeded directions and phases and
+  wavelengths spread log-uniformly over ``relief_scale_m`` × [0.5, 2], scaled to an rms height of
+  ``relief_m`` (dunes, hummocks, scour);
+* **ripples**: wave-formed sand ripples of wavelength ``ripple_wavelength_m`` and crest-to-trough
+  height ``ripple_height_m``, crests at ``ripple_direction_deg``, with the sharp crests and broad
+  troughs of oscillation ripples (the profile ``|sin(φ/2)|^1.5``) and crests that wander
+  (a slow phase modulation) — the look of ripple fields at 2–20 m depth (typical wave ripples: 5–50 cm
+  long, height about 0.15 × length: Wiberg & Harris 1994, J. Geophys. Res. 99(C4) 775–789).
+
+The mesh is a regular grid of ``cells`` × ``cells`` squares (two triangles each) over an
+``extent_m`` square; :func:`seabed_mesh_file` writes it once as a binary PLY in the cache
+(``$RIGSIM_CACHE_DIR`` or ``~/.cache/rigsim``/seabeds, named by the parameters' hash, written
+atomically) — both engines then read it like any mesh target (:func:`rigsim.scene.meshes.read_mesh`).
+:func:`height_at` gives the same heights anywhere, to rest objects on the seabed.
+
+Placement (:func:`rigsim.scene.surfaces.target_surfaces`): level (mean height 0) ``distance_m``
+below the entrance pupil, its x along the camera's right projected on the horizontal, its centre
+:data:`AHEAD_FRACTION` of the extent ahead of the camera along its horizontal forward direction.
+"""
+
+from __future__ import annotations
+
+import functools
+import hashlib
+import json
+import math
+import os
+from dataclasses import asdict, dataclass
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ["SeabedSpec", "height_at", "seabed_mesh", "seabed_mesh_file", "seabed_points", "AHEAD_FRACTION", "RELIEF_MODES"]
+
+#: Cosine modes of the relief.
+RELIEF_MODES = 24
+#: The patch's centre lies this fraction of its extent ahead of the camera (horizontally).
+AHEAD_FRACTION = 0.3
+
+
+@dataclass(frozen=True)
+class SeabedSpec:
+    """Parameters of a seabed patch (lengths in m, angles in deg)."""
+
+    seed: int = 0
+    extent_m: float = 12.0
+    cells: int = 384
+    ripple_wavelength_m: float = 0.25
+    ripple_height_m: float = 0.03
+    ripple_direction_deg: float = 0.0
+    relief_m: float = 0.12
+    relief_scale_m: float = 2.5
+    slope_deg: float = 0.0
+    slope_direction_deg: float = 0.0
+
+    def __post_init__(self):
+        from rigsim.errors import ConfigError
+
+        checks = {"extent_m": (0.5, 200.0), "cells": (4, 2048), "ripple_wavelength_m": (0.01, 10.0),
+                  "ripple_height_m": (0.0, 1.0), "relief_m": (0.0, 10.0), "relief_scale_m": (0.05, 100.0),
+                  "slope_deg": (0.0, 45.0)}
+        for name, (lo, hi) in checks.items():
+            v = getattr(self, name)
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not (math.isfinite(v) and lo <= v <= hi):
+                raise ConfigError(f"{name} must be in [{lo:g}, {hi:g}], got {v!r}", field=f"seabed.{name}",
+                                  allowed=f"{lo:g} … {hi:g}")
+        if self.extent_m / self.cells > self.ripple_wavelength_m / 4 and self.ripple_height_m > 0:
+            raise ConfigError(f"{self.cells} cells over {self.extent_m:g} m cannot draw ripples "
+                              f"{self.ripple_wavelength_m:g} m long", field="seabed.cells",
+                              allowed=f">= {math.ceil(4 * self.extent_m / self.ripple_wavelength_m)} "
+                                      "(four per ripple wavelength)")
+
+    def key(self) -> str:
+        return hashlib.blake2b(json.dumps(asdict(self), sort_keys=True).encode(), digest_size=10).hexdigest()
+
+
+@functools.lru_cache(maxsize=64)
+def _modes(spec: SeabedSpec) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+    """The relief's wave vectors (K, 2) (rad/m), phases, amplitudes; the ripples' wander phase scale."""
+    rng = np.random.default_rng([int(spec.seed), 0x5EABED])
+    lam = spec.relief_scale_m * np.exp(rng.uniform(np.log(0.5), np.log(2.0), RELIEF_MODES))
+    ang = rng.uniform(0.0, 2 * np.pi, RELIEF_MODES)
+    k = (2 * np.pi / lam)[:, None] * np.stack([np.cos(ang), np.sin(ang)], 1)
+    ph = rng.uniform(0.0, 2 * np.pi, RELIEF_MODES)
+    amp = lam / lam.sum()  # longer waves higher (a red spectrum), then scaled to the rms below
+    amp = amp * spec.relief_m * math.sqrt(2.0) / math.sqrt(np.sum(amp ** 2))
+    return k, ph, amp, float(rng.uniform(0, 2 * np.pi))
+
+
+def height_at(spec: SeabedSpec, x, z) -> np.ndarray:
+    """Seabed height (m) at horizontal positions ``(x, z)`` of its own frame (any equal shapes)."""
+    x, z = np.asarray(x, float), np.asarray(z, float)
+    k, ph, amp, ph0 = _modes(spec)
+    h = np.zeros(np.broadcast(x, z).shape)
+    for j in range(len(ph)):
+        h += amp[j] * np.cos(k[j, 0] * x + k[j, 1] * z + ph[j])
+    s = math.radians(spec.slope_direction_deg)
+    h += math.tan(math.radians(spec.slope_deg)) * (x * math.cos(s) + z * math.sin(s))
+    if spec.ripple_height_m > 0:
+        r = math.radians(spec.ripple_direction_deg)
+        across = x * math.cos(r) + z * math.sin(r)
+        along = -x * math.sin(r) + z * math.cos(r)
+        wander = 0.6 * np.sin(2 * np.pi * along / (7.0 * spec.ripple_wavelength_m) + ph0)
+        phi = 2 * np.pi * across / spec.ripple_wavelength_m + wander
+        prof = np.abs(np.sin(phi / 2)) ** 1.5  # sharp crests at φ = π, broad troughs
+        h += spec.ripple_height_m * (prof - 0.6)  # (mean of |sin|^1.5 ≈ 0.6: level on average)
+    return h
+
+
+def seabed_mesh(spec: SeabedSpec) -> tuple[np.ndarray, np.ndarray]:
+    """``(vertices (n, 3), faces (m, 3))`` of the height field, m, y up, centred on x = z = 0."""
+    n = spec.cells + 1
+    g = np.linspace(-spec.extent_m / 2, spec.extent_m / 2, n)
+    X, Z = np.meshgrid(g, g, indexing="ij")
+    V = np.stack([X, height_at(spec, X, Z), Z], -1).reshape(-1, 3)
+    idx = np.arange(n * n).reshape(n, n)
+    a, b, c, d = idx[:-1, :-1].ravel(), idx[1:, :-1].ravel(), idx[1:, 1:].ravel(), idx[:-1, 1:].ravel()
+    # wound so that the normals point up (+y): (x, z) → a right-handed turn about +y is x → −z
+    F = np.concatenate([np.stack([a, c, b], 1), np.stack([a, d, c], 1)])
+    return V, F
+
+
+def _cache_dir() -> Path:
+    root = os.environ.get("RIGSIM_CACHE_DIR") or str(Path.home() / ".cache" / "rigsim")
+    return Path(root) / "seabeds"
+
+
+def seabed_mesh_file(spec: SeabedSpec) -> Path:
+    """The seabed as a binary PLY in the cache (written once, atomically); its path."""
+    path = _cache_dir() / f"seabed-{spec.key()}.ply"
+    if path.is_file():
+        return path
+    import pyvista as pv
+
+    V, F = seabed_mesh(spec)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    mesh = pv.PolyData(V, np.c_[np.full(len(F), 3), F].ravel())
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp.ply")
+    mesh.save(str(tmp), binary=True)
+    os.replace(tmp, path)
+    return path
+
+
+def seabed_points(spec: SeabedSpec, to_world, origins: np.ndarray, directions: np.ndarray, *,
+                  max_m: float = 40.0, step_m: float | None = None) -> np.ndarray:
+    """Where rays (world origins and unit directions, (N, 3)) first meet the seabed placed by the 4×4
+    ``to_world`` (world points (N, 3); NaN where a ray misses it within ``max_m`` or leaves the patch):
+    marched in steps of a quarter ripple wavelength, then bisected."""
+    M = np.asarray(to_world, float)
+    R, t0 = M[:3, :3], M[:3, 3]
+    o = (np.asarray(origins, float) - t0) @ R  # (R orthonormal: the inverse is its transpose)
+    d = np.asarray(directions, float) @ R
+    step = step_m or min(spec.ripple_wavelength_m / 4, spec.extent_m / spec.cells)
+    ts = np.arange(0.0, max_m + step, step)
+    out = np.full(o.shape, np.nan)
+    half = spec.extent_m / 2
+    for i in range(len(o)):
+        p = o[i] + ts[:, None] * d[i]
+        above = p[:, 1] - height_at(spec, p[:, 0], p[:, 2])
+        cross = np.flatnonzero((above[:-1] > 0) & (above[1:] <= 0))
+        if not cross.size:
+            continue
+        lo, hi = ts[cross[0]], ts[cross[0] + 1]
+        for _ in range(40):
+            mid = 0.5 * (lo + hi)
+            q = o[i] + mid * d[i]
+            if q[1] - height_at(spec, q[0], q[2]) > 0:
+                lo = mid
+            else:
+                hi = mid
+        q = o[i] + hi * d[i]
+        if abs(q[0]) <= half and abs(q[2]) <= half:
+            out[i] = R @ q + t0
+    return out
