@@ -37,6 +37,21 @@
     bottom_probability = 0.6                      # add a sand bottom below the camera
     bottom_altitude_m = [0.6, 3.0]
 
+    [seabed]                                      # seabed scenes (rigsim.scene.seabed), instead of the above
+    probability = 0.0                             # share of samples that are seabed scenes
+    altitude_m = [0.8, 2.5]                       # the rig above the mean sand level
+    camera_pitch_deg = [20, 60]                   # the whole rig turned down
+    ripple_wavelength_m = [0.15, 0.4]             # sand ripples (uniform), their height,
+    ripple_height_m = [0.0, 0.04]
+    relief_m = [0.0, 0.25]                        # undulation (rms) and slope
+    slope_deg = [0, 10]
+    rocks = [0, 4]                                # meshes of [scene] meshes lying partly buried,
+    rock_size_m = [0.15, 0.6]                     # log-uniform sizes
+    rubble = [0, 25]
+    rubble_size_m = [0.03, 0.1]
+    extent_m = 12.0                               # the patch's side and its grid (>= 4 cells a ripple)
+    cells = 384
+
 Every range is checked when the spec is read, so an impossible range fails before rendering.
 """
 
