@@ -221,7 +221,7 @@ def build_sample_scene(spec: DatasetSpec, rec: dict):
     pf = rec["power_fraction"]
     lights = tuple(dataclasses.replace(l, axial_intensity=tuple(float(x) * pf for x in l.axial_intensity))
                    for l in rig.lights)
-    rig = dataclasses.replace(rig, lights=lights)
+    rig = dataclasses.replace(rig, lights=lights, camera=_cropped(rig.camera, spec.width, spec.height))
     water = _water(rec)
     if "seabed" in rec:
         rig = pitched_rig(rig, rec["seabed"]["camera_pitch_deg"])
@@ -254,6 +254,18 @@ def build_sample_scene(spec: DatasetSpec, rec: dict):
         water = with_particles(water, particle_level(rec["particles"]["level"]))
         seed = int(rec["particles"]["seed"])
     return Scene(rig=rig, water=water, targets=tuple(targets), particle_seed=seed), water
+
+
+def _cropped(camera, width: int, height: int):
+    """The camera with its sensor cropped to the image's aspect (as a camera's 4:3 or 16:9 mode crops it),
+    so that pixels are square; unchanged where the aspects agree."""
+    sw, sh = camera.sensor_width_mm, camera.sensor_height_mm
+    want = width / height
+    if abs(want - sw / sh) < 1e-3 * want:
+        return camera
+    if want < sw / sh:
+        return dataclasses.replace(camera, sensor_width_mm=sh * want)
+    return dataclasses.replace(camera, sensor_height_mm=sw / want)
 
 
 def _noise_free_linear(si, sensor, exposure, gains, ccm, layer=None) -> np.ndarray:
