@@ -21,8 +21,9 @@ The image is the sum of three components (McGlamery 1980; Jaffe 1990):
 Daylight (``scene.daylight``) is the scene's daylight field
 (:func:`rigsim.scene.daylight_field.scene_daylight`: the Kd shortcut or the Monte Carlo meter,
 with the Daylight's sky and photons) and its transport, the same tables and formulas as the
-renderer's: the target is lit by the sun beam and the diffuse field integrated over the
-hemisphere about its normal (each × its height factor; unoccluded), seen through ``e^{−c s}``
+renderer's: the target is lit by the sun beam (stopped by other targets, and a mesh by itself, when
+``shadows`` is on, as the renderer's shadow ray) and the diffuse field integrated over the
+hemisphere about its normal (each × its height factor; the diffuse field unoccluded), seen through ``e^{−c s}``
 (no forward-scattered halo, as the renderer's daylight), and each line of sight collects
 Duntley's path radiance ``L_amb(v)(1 − e^{−(c − K v_y) s})``, so a black target's contrast is
 ``−e^{−c s}`` along a horizontal line of sight, as in the renderer.
@@ -32,9 +33,10 @@ own interpolated normal (smooth shading, as the renderer's), for the strobes' co
 (a rock shadows itself) and the diffuse daylight, which for meshes is interpolated on a grid of
 normals (:data:`_NORMAL_GRID`).  Checked in ``tests/preview/test_meshes.py``: a disk of 720
 triangles images as the flat disk (every layer within 0.5 %), the shipped rock in coastal water
-agrees with Monte Carlo (region means within 5 % + t·SE).  Measured once (48 × 48, 4 × 256 spp): in
-coastal water the rock's mean radiance within 0.6 %, in Jerlov 3C within 3.6 % (blue) and its
-unscattered light per pixel within −0.7…+0.9 % (5th–95th percentile), self-shadowing included.
+agrees with Monte Carlo (region means within 5 % + t·SE).  Measured once (48 × 48, 4 × 256 spp, before
+shadows were on by default for meshes): in coastal water the rock's mean radiance within 0.6 %, in
+Jerlov 3C within 3.6 % (blue) and its unscattered light per pixel within −0.7…+0.9 % (5th–95th
+percentile).
 
 What is not in it: multiple wide-angle scattering (the "glow" of turbid water
 beyond a few optical depths), light scattered by more than the forward cut-off
@@ -205,7 +207,7 @@ def _sub_band_wavelengths(wl: np.ndarray, bw: np.ndarray, n: int) -> tuple[np.nd
 def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
                    wavelengths_nm: Sequence[float] = DEFAULT_WAVELENGTHS_NM, bandwidth_nm=None,
                    layers: Sequence[str] = ("range_m", "clear", "object_id"), split: bool = False,
-                   shadows: bool = False, forward_scatter: bool = True, forward_cutoff_deg: float | None = None,
+                   shadows: bool | str = "auto", forward_scatter: bool = True, forward_cutoff_deg: float | None = None,
                    sub_bands: int = 3, pixel_samples: int = 1, edge_samples: int = 4,
                    backscatter_grid: int | None = 32, backscatter_nodes: int = 64, multiple: bool | str = "auto",
                    photons: int | None = None,
@@ -227,7 +229,9 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
         Ground-truth layers from :data:`PREVIEW_LAYERS`; ``split`` adds ``direct`` and
         ``backscatter``.
     shadows
-        Let target surfaces shadow the lights (on surfaces and in the water).
+        Let target surfaces shadow the lights and the sun (on surfaces; the lights also in the water):
+        True, False, or ``"auto"`` (default: where a shadow can fall — a mesh, or more than one
+        target; a single flat target cannot shadow itself).
     forward_scatter
         Include the small-angle forward-scattered component (False: the classical
         direct + single-backscatter model with ``e^{−c·}`` on every leg).
@@ -315,6 +319,11 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
     forward = bool(forward_scatter) and has_water
     water = _water_at(scene, wl, lam, cutoff, forward)
     surf = scene_surfaces(scene)
+    if shadows == "auto":
+        shadows = bool(np.any(surf.is_mesh)) or len(scene.targets) > 1
+    elif not isinstance(shadows, bool):
+        raise ConfigError(f"shadows must be true, false or 'auto', got {shadows!r}", field="shadows",
+                          allowed="true, false, auto")
     cam = scene.camera
     n_out = outside_index(scene)
     pitch = angular_pitch_rad(cam, width, height, n_outside=n_out)
@@ -362,7 +371,8 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
                 ms_by_group[gname] = ms
             # the target lit by the scene's daylight field (as the renderer: sun beam and diffuse field; no
             # forward-scattered halo of it, the renderer's daylight transport has none) and its path radiance
-            day = _Daylight(scene_daylight(scene, req.band_lo_nm, req.band_hi_nm), wl, surf, bw) if has_day else None
+            day = _Daylight(scene_daylight(scene, req.band_lo_nm, req.band_hi_nm), wl, surf, bw,
+                            shadows=shadows) if has_day else None
             grid = None
             if tables:
                 grid = _backscatter_grid(scene, surf, tables, water, forward, cam, width, height, world_r,
@@ -1133,6 +1143,9 @@ def _particle_shadows(group: "_Group", image: np.ndarray, ps, scene: Scene) -> n
 
 
 # --- daylight ------------------------------------------------------------------------------
+#: Length of the shadow test towards the sun (m): far beyond any target.
+_SUN_RAY_M = 1000.0
+
 #: Nodes of the grid of surface normals (zenith 0–180°, azimuth −180–180°) on which the diffuse daylight's
 #: irradiance of mesh samples is interpolated (every 5.6° in each).
 _NORMAL_GRID = (33, 65)
@@ -1153,7 +1166,9 @@ def _on_normal_grid(grid: np.ndarray, n: np.ndarray) -> np.ndarray:
 class _Daylight:
     """The scene's daylight field (:mod:`rigsim.scene.daylight_field`) for the per-pixel passes."""
 
-    def __init__(self, day: SceneDaylight, wl: np.ndarray, surf: SceneSurfaces, bw: np.ndarray | None = None):
+    def __init__(self, day: SceneDaylight, wl: np.ndarray, surf: SceneSurfaces, bw: np.ndarray | None = None,
+                 shadows: bool = False):
+        self.surf, self.shadows = surf, bool(shadows)
         if bw is not None:
             day = day.band_means(wl, bw)
         self.day, self.wl = day, wl
@@ -1191,13 +1206,19 @@ class _Daylight:
     def irradiance(self, h: _Hits, dt) -> np.ndarray:
         """Daylight irradiance (N, B) on surface samples (facing the camera).
 
-        Sun beam × cos × the beam's height factor × caustics, plus the diffuse field integrated over
-        the hemisphere about the normal × its height factor (unoccluded: no shadows or light from other
-        targets).
+        Sun beam × cos × the beam's height factor × caustics (with ``shadows``: zero where a target
+        stops the beam), plus the diffuse field integrated over the hemisphere about the normal × its
+        height factor (unoccluded: no light from other targets and none of the sky they hide).
         """
         t = self.t[dt]
         dy = (h.p[..., 1] - self.day.y0).astype(dt)[..., None]
         cos_sun = np.clip(-(h.nrm @ self.sun), 0.0, None)
+        if self.shadows and len(h):  # the sun beam stopped by a target on the way (the renderer's shadow ray)
+            lit = np.flatnonzero(cos_sun > 0)
+            if lit.size:
+                p = h.p[lit] + 1e-7 * h.nrm[lit]
+                far = p - _SUN_RAY_M * self.sun
+                cos_sun[lit] = np.where(occluded(self.surf, p, far, exclude=h.oid[lit]), 0.0, cos_sun[lit])
         e_sun = (cos_sun * self.day.caustic(h.p)).astype(dt)[..., None] * t["beam"] \
             * height_factor(t["k_beam"], dy, np.exp)
         e_dif = t["e_dif"][2 * (h.oid - 1) + h.side]

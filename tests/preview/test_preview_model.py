@@ -171,15 +171,17 @@ def test_bad_input_is_a_config_error(kw, msg):
 
 
 def test_shadows_darken_what_is_hidden_from_a_light():
-    """A small disk in front of a large one shadows it from a light on the axis (shadows=True)."""
+    """A small disk in front of a large one shadows it from a light on the axis (shadows=True; the default
+    "auto" turns them on for two targets)."""
     cam = dome_camera(35.0)
     light = make_light(position=(0.0, 0.0, 0.2))
     t_front = Target("black-disk", 1.0, size_m=0.2)
     t_back = Target("white-disk", 2.0, size_m=1.5)
     scene = Scene(Rig("r", cam, (light,)), absorbing_water(), (t_front, t_back))
     kw = dict(width=32, height=32, wavelengths_nm=[550.0], split=True)
-    lit = render_preview(scene, **kw)
+    lit = render_preview(scene, shadows=False, **kw)
     shad = render_preview(scene, shadows=True, **kw)
+    np.testing.assert_array_equal(render_preview(scene, **kw).layers["flash_direct"], shad.layers["flash_direct"])
     oid = shad.layers["object_id"]
     # back-disk pixels just outside the front disk's image are in its shadow (light behind the camera)
     ring = (oid == 2) & (shad.layers["flash_direct"][..., 0] < 0.5 * lit.layers["flash_direct"][..., 0])
