@@ -32,7 +32,7 @@ def optimise_cmd(
     water: str = typer.Option(..., "--water", help="Water preset or TOML file; a comma-separated list sweeps."),
     distance: str = typer.Option(..., "--distance", help="Subject distance, m; a comma-separated list sweeps."),
     sensor: str = typer.Option("sony_ilce-7rm2", "--sensor", help="Sensor name (sensors/) or TOML file."),
-    subject: str = typer.Option("colorchecker", "--subject", help="colorchecker | white-disk | path/to/mesh.obj|.ply (a rock, a coral head)"),
+    subject: str = typer.Option("colorchecker", "--subject", help="colorchecker | white-disk | path to an .obj|.ply|.gltf|.glb mesh (a rock, a coral head)"),
     fill: float = typer.Option(0.6, "--fill", help="The subject's width as a fraction of the frame's (0-1.5)."),
     particles: str = typer.Option("none", "--particles",
                                   help="Marine snow: none | clear-ocean | coastal | plankton-bloom | silt-near-bottom."),

@@ -125,7 +125,9 @@ class Setting:
 
     @property
     def subject_kind(self) -> str:
-        return "mesh" if str(self.subject).lower().endswith((".obj", ".ply")) else str(self.subject)
+        from rigsim.scene.meshes import MESH_SUFFIXES
+
+        return "mesh" if str(self.subject).lower().endswith(MESH_SUFFIXES) else str(self.subject)
 
     def load_water(self):
         """The :class:`~rigsim.water.Water` (with its marine snow) of this setting."""

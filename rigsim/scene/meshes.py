@@ -1,11 +1,12 @@
-"""Triangle meshes read from OBJ and PLY files (PyVista/VTK), once, for every consumer.
+"""Triangle meshes read from OBJ, PLY and glTF files (PyVista/VTK), once, for every consumer.
 
 The scene (placement and scale of a mesh target, :mod:`rigsim.scene.surfaces`), the
 renderer (:mod:`rigsim.render.targets` builds its ``mi.Mesh`` from these arrays) and the
 configuration checks all read a mesh file through :func:`read_mesh`, so they see the
 same triangles.
 
-Reading is :func:`pyvista.read` (VTK's ``vtkOBJReader`` / ``vtkPLYReader``); polygons
+Reading is :func:`pyvista.read` (VTK's ``vtkOBJReader`` / ``vtkPLYReader`` / ``vtkGLTFReader``:
+a glTF file's primitives, with its nodes' transforms, merged into one mesh); polygons
 are split into triangles (:meth:`pyvista.PolyData.triangulate`).  Units are those of
 the file, taken as metres.  A missing, unreadable or empty file is a one-line
 :class:`~rigsim.errors.ConfigError` naming the file.
@@ -23,6 +24,7 @@ file's modification time, so an edited file is read again.
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import os
 import re
@@ -37,8 +39,8 @@ from rigsim.errors import ConfigError
 __all__ = ["MESH_SUFFIXES", "TriangleMesh", "read_mesh", "mesh_vertices", "placed_mesh"]
 
 #: File types :func:`read_mesh` reads.
-MESH_SUFFIXES = (".obj", ".ply")
-_ALLOWED = "an existing .obj or .ply file"
+MESH_SUFFIXES = (".obj", ".ply", ".gltf", ".glb")
+_ALLOWED = "an existing .obj, .ply, .gltf or .glb file"
 
 
 @dataclass(frozen=True, eq=False)
@@ -161,6 +163,38 @@ def _check_ply_length(p: Path) -> None:
         raise ValueError(f"file ends inside the data ({len(data)} of {pos} bytes)")
 
 
+@contextlib.contextmanager
+def _quiet_vtk():
+    """VTK's own error lines (passed to Python's root logger and stderr) off while a file is read: a bad
+    file is one line, the ConfigError; PyVista's warning still says the reader failed."""
+    import logging
+
+    try:
+        from vtkmodules.vtkCommonCore import vtkLogger
+        old = vtkLogger.GetCurrentVerbosityCutoff()
+        vtkLogger.SetStderrVerbosity(vtkLogger.VERBOSITY_OFF)
+    except Exception:  # noqa: BLE001 - an older VTK: its lines stay
+        vtkLogger = old = None
+    logging.disable(logging.CRITICAL)
+    try:
+        yield
+    finally:
+        logging.disable(logging.NOTSET)
+        if vtkLogger is not None:
+            vtkLogger.SetStderrVerbosity(old)
+
+
+def _leaves(block):
+    """The non-empty datasets of a (nested) PyVista MultiBlock."""
+    import pyvista as pv
+
+    for b in block:
+        if isinstance(b, pv.MultiBlock):
+            yield from _leaves(b)
+        elif b is not None and b.n_points:
+            yield b
+
+
 @functools.lru_cache(maxsize=16)
 def _read_cached(path: str, mtime: float) -> TriangleMesh:
     import pyvista as pv
@@ -169,7 +203,7 @@ def _read_cached(path: str, mtime: float) -> TriangleMesh:
     try:
         if p.suffix.lower() == ".ply":
             _check_ply_length(p)
-        with warnings.catch_warnings(record=True) as caught:
+        with warnings.catch_warnings(record=True) as caught, _quiet_vtk():
             warnings.simplefilter("always")
             mesh = pv.read(p)
         failed = [str(w.message) for w in caught if "error" in str(w.message).lower()]
@@ -179,9 +213,16 @@ def _read_cached(path: str, mtime: float) -> TriangleMesh:
                              "truncated file)")
     except (OSError, ValueError, RuntimeError) as exc:
         msg = " ".join(str(exc).split())[:200]
-        raise ConfigError(f"cannot read mesh: {msg}", file=p, allowed="a valid OBJ or PLY file") from None
+        raise ConfigError(f"cannot read mesh: {msg}", file=p, allowed="a valid OBJ, PLY or glTF file") from None
+    if isinstance(mesh, pv.MultiBlock):  # glTF: one block per mesh primitive (node transforms applied by VTK)
+        blocks = list(_leaves(mesh))
+        if not blocks:
+            raise ConfigError("mesh has no usable vertices", file=p, allowed=_ALLOWED)
+        mesh = pv.merge(blocks, merge_points=False) if len(blocks) > 1 else blocks[0]
     if not isinstance(mesh, pv.PolyData):
-        mesh = mesh.extract_surface()
+        with warnings.catch_warnings():  # (PyVista's notice of a future default; the result is the same)
+            warnings.simplefilter("ignore")
+            mesh = mesh.extract_surface()
     vertices = np.asarray(mesh.points, np.float64).reshape(-1, 3)
     if vertices.shape[0] < 3 or not np.all(np.isfinite(vertices)):
         raise ConfigError("mesh has no usable vertices", file=p, allowed="an OBJ/PLY with >= 3 finite vertices")
@@ -190,11 +231,11 @@ def _read_cached(path: str, mtime: float) -> TriangleMesh:
         tri = mesh.triangulate()  # same points; polygons split into triangles, winding kept
         if tri.n_points != mesh.n_points:
             raise ConfigError("cannot read mesh: triangulation changed the vertices", file=p,
-                              allowed="a valid OBJ or PLY file")
+                              allowed="a valid OBJ, PLY or glTF file")
         faces = np.asarray(tri.regular_faces, np.int64).reshape(-1, 3)
     if faces.size and (faces.min() < 0 or faces.max() >= len(vertices)):
         raise ConfigError("cannot read mesh: a face refers to a missing vertex", file=p,
-                          allowed="a valid OBJ or PLY file")
+                          allowed="a valid OBJ, PLY or glTF file")
     normals = mesh.point_data.get("Normals")
     if normals is not None:
         normals = np.asarray(normals, np.float64).reshape(-1, 3)
@@ -207,12 +248,12 @@ def _read_cached(path: str, mtime: float) -> TriangleMesh:
 
 
 def read_mesh(path: str | Path) -> TriangleMesh:
-    """Read (once) the triangle mesh of an OBJ or PLY file.
+    """Read (once) the triangle mesh of an OBJ, PLY or glTF (``.gltf``/``.glb``) file.
 
     Parameters
     ----------
     path
-        The file (``.obj`` or ``.ply``, ASCII or binary PLY).
+        The file (``.obj``, ``.ply`` (ASCII or binary), ``.gltf`` or ``.glb``).
 
     Returns
     -------
@@ -238,7 +279,7 @@ def read_mesh(path: str | Path) -> TriangleMesh:
     if not os.path.isfile(p):
         raise ConfigError("mesh path is not a file", file=p, allowed=_ALLOWED)
     if p.suffix.lower() not in MESH_SUFFIXES:
-        raise ConfigError(f"unsupported mesh format {p.suffix.lower()!r}", file=p, allowed=".obj or .ply")
+        raise ConfigError(f"unsupported mesh format {p.suffix.lower()!r}", file=p, allowed=", ".join(MESH_SUFFIXES))
     return _read_cached(str(p.resolve()), p.stat().st_mtime)
 
 

@@ -11,6 +11,7 @@ import logging
 import numpy as np
 
 from rigsim.fileio import png_bytes
+from rigsim.scene.meshes import MESH_SUFFIXES
 from rigsim.study.spec import Case, StudySpec, sensor_key
 
 log = logging.getLogger(__name__)
@@ -26,7 +27,7 @@ def case_scene(spec: StudySpec, case: Case):
 
     rig = load_rig(case.rig)
     water = load_water(case.water)
-    target_kind = case.target if not case.target.lower().endswith((".obj", ".ply")) else "mesh"
+    target_kind = case.target if not case.target.lower().endswith(MESH_SUFFIXES) else "mesh"
     size_m = None
     if case.target_fill is not None:
         from rigsim.scene.optics import field_width_m
