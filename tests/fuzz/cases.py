@@ -204,7 +204,8 @@ def base_documents() -> dict[str, tuple[tuple[str, dict], ...]]:
     studies = (("tiny-study.toml", _doc(ROOT / "tests" / "data" / "tiny-study.toml")),
                ("demo.toml", _doc(ROOT / "studies" / "demo.toml")))
     datasets = (("tiny-dataset.toml", _doc(ROOT / "tests" / "data" / "tiny-dataset.toml")),
-                ("underwater-training.toml", _doc(ROOT / "datasets" / "underwater-training.toml")))
+                ("underwater-training.toml", _doc(ROOT / "datasets" / "underwater-training.toml")),
+                ("seabed.toml", _doc(ROOT / "datasets" / "seabed.toml")))
     return {"rig": rigs, "water": waters, "sensor": sensors, "study": studies, "dataset": datasets}
 
 
