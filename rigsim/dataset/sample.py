@@ -95,6 +95,10 @@ def draw_sample(spec: DatasetSpec, index: int, seed: int) -> dict:
     if sb and rng.random() < sb["probability"]:  # (after the snow: the same rule)
         rec["seabed"] = _draw_seabed(sb, spec, rng)
         rec.pop("bottom_altitude_m", None)
+    dl = spec.daylight
+    if dl and rng.random() < dl["probability"]:
+        rec["daylight"] = {"depth_m": _uniform(rng, dl["depth_m"]), "sun_zenith_deg": _uniform(rng, dl["sun_zenith_deg"]),
+                           "sun_azimuth_deg": float(rng.uniform(0.0, 360.0))}
     return rec
 
 
@@ -253,7 +257,12 @@ def build_sample_scene(spec: DatasetSpec, rec: dict):
 
         water = with_particles(water, particle_level(rec["particles"]["level"]))
         seed = int(rec["particles"]["seed"])
-    return Scene(rig=rig, water=water, targets=tuple(targets), particle_seed=seed), water
+    daylight = None
+    if rec.get("daylight"):
+        from rigsim.scene.types import Daylight
+
+        daylight = Daylight(**rec["daylight"])
+    return Scene(rig=rig, water=water, targets=tuple(targets), particle_seed=seed, daylight=daylight), water
 
 
 def _cropped(camera, width: int, height: int):

@@ -52,6 +52,11 @@
     extent_m = 12.0                               # the patch's side and its grid (>= 4 cells a ripple)
     cells = 384
 
+    [daylight]                                    # daylight besides the rig's lights (Kd model, clear sky)
+    probability = 0.0
+    depth_m = [3, 20]                             # camera depth (uniform)
+    sun_zenith_deg = [10, 60]                     # sun zenith angle (uniform; azimuth uniform)
+
 Every range is checked when the spec is read, so an impossible range fails before rendering.
 """
 
@@ -107,6 +112,7 @@ class DatasetSpec:
     bottom_altitude_m: tuple[float, float]
     engine: str = "mitsuba"
     seabed: dict | None = None  # the [seabed] table's ranges (None: no seabed scenes)
+    daylight: dict | None = None  # the [daylight] table's ranges (None: strobes only)
 
     def describe(self) -> dict:
         from dataclasses import asdict
@@ -237,6 +243,16 @@ class SeabedRanges(FileModel):
     cells: Annotated[Int, Field(ge=16, le=2048)] = 384
 
 
+class DaylightRanges(FileModel):
+    """``[daylight]``: with ``probability`` a sample is also lit by daylight (:class:`~rigsim.scene.types.Daylight`,
+    the Kd model under a clear sky): the camera ``depth_m`` below the surface, the sun ``sun_zenith_deg``
+    from the zenith at a uniform azimuth; targets shadow the sun (and the strobes)."""
+
+    probability: _Probability = 0.0
+    depth_m: value_range(positive=True, hi=200.0) = (3.0, 20.0)
+    sun_zenith_deg: value_range(lo=0.0, hi=85.0) = (10.0, 60.0)
+
+
 class DatasetFile(FileModel):
     """A whole dataset spec (see the module docstring)."""
 
@@ -246,6 +262,7 @@ class DatasetFile(FileModel):
     sensor: SensorTable = SensorTable()
     scene: SceneRanges = SceneRanges()
     seabed: SeabedRanges = SeabedRanges()
+    daylight: DaylightRanges = DaylightRanges()
 
 
 def _resolve(p: str, base: Path) -> str:
@@ -345,4 +362,5 @@ def load_dataset_spec(path: str | Path) -> DatasetSpec:
         sensors=sn.names, noise=sn.noise, distance_m=dist, objects=(int(sc.objects[0]), int(sc.objects[1])),
         kinds=sc.kinds, meshes=tuple(meshes), size_fraction=sc.size_fraction, reflectances=sc.reflectances,
         bottom_probability=sc.bottom_probability, bottom_altitude_m=sc.bottom_altitude_m, engine=ds.engine,
-        seabed=sb.model_dump() if sb.probability > 0 else None)
+        seabed=sb.model_dump() if sb.probability > 0 else None,
+        daylight=f.daylight.model_dump() if f.daylight.probability > 0 else None)

@@ -134,3 +134,26 @@ def test_a_bad_seabed_table_fails_before_rendering(tmp_path, old, new, pattern):
     with pytest.raises(ConfigError, match=pattern) as e:
         load_dataset_spec(p)
     assert "\n" not in str(e.value) and "spec.toml" in str(e.value)
+
+
+def test_daylight_samples_are_lit_by_the_sun_too(spec, tmp_path):
+    """[daylight] draws a depth and a sun per sample and the scene carries it; its light adds to the
+    strobes' everywhere (the same scene without it is nowhere brighter, and darker in the water above the
+    sand); the dataset writes such a sample."""
+    import dataclasses
+
+    from rigsim.preview import render_preview
+
+    lit = dataclasses.replace(spec, daylight={"probability": 1.0, "depth_m": (5.0, 5.0), "sun_zenith_deg": (30.0, 30.0)})
+    rec = draw_sample(lit, 0, 2)
+    assert rec["daylight"]["depth_m"] == 5.0 and 0 <= rec["daylight"]["sun_azimuth_deg"] < 360
+    scene, _ = build_sample_scene(lit, rec)
+    assert scene.daylight.depth_m == 5.0 and scene.daylight.sun_zenith_deg == 30.0
+    kw = dict(width=48, height=32, wavelengths_nm=[450.0, 550.0, 650.0], bandwidth_nm=10.0, multiple=False)
+    with_sun = render_preview(scene, **kw).radiant_exposure(1.0)
+    without = render_preview(dataclasses.replace(scene, daylight=None), **kw).radiant_exposure(1.0)
+    assert np.all(with_sun >= without * (1 - 1e-6))
+    oid = np.asarray(render_preview(scene, layers=("object_id",), **kw).layers["object_id"])
+    assert (oid == 0).sum() > 20 and (with_sun[oid == 0] > 1.01 * without[oid == 0]).all()
+    out = run_dataset(lit, 1, tmp_path / "sun", seed=2, serial=True, progress=False)
+    assert json.loads((out / "samples" / "000000" / "record.json").read_text())["daylight"] == rec["daylight"]
