@@ -25,10 +25,18 @@ def reflectance_library(name: str) -> tuple[np.ndarray, np.ndarray, tuple[str, .
 
     ``training``: the 190 reflectances of the RAW to ACES v1 training set shipped with
     colour-science (``colour.characterisation.read_training_data_rawtoaces_v1``, 380–780 nm);
-    ``colorchecker``: the 24 ColorChecker patches (Ohta, colour-science).
+    ``colorchecker``: the 24 ColorChecker patches (Ohta, colour-science);
+    ``benthic``: coral sand and green, brown and red algae (Maritorena, Morel & Gentili 1994:
+    :func:`rigsim.scene.reflectances.reflectance_benthic_Maritorena1994`).
     """
     import colour
 
+    if name == "benthic":
+        from rigsim.scene.reflectances import reflectance_benthic_Maritorena1994
+
+        wl = np.arange(360.0, 831.0, 5.0)
+        b = reflectance_benthic_Maritorena1994(wl)
+        return wl, np.array(list(b.values())), tuple(b)
     if name == "training":
         msd = colour.characterisation.read_training_data_rawtoaces_v1()
         wl = np.asarray(msd.wavelengths, float)
@@ -106,7 +114,7 @@ def _draw_seabed(sb: dict, spec: DatasetSpec, rng) -> dict:
     """A seabed scene's choices: the height field, the rig's altitude and pitch, and where (pixel
     positions, fractions of the image) the objects, rocks and rubble rest, with their poses."""
     meshes = list(spec.meshes) or [_ROCK]
-    wl, lib, labels = reflectance_library(spec.reflectances)
+    wl, lib, labels = reflectance_library(sb.get("rock_reflectances", "benthic"))
 
     def placed(kind, size_m, mesh=None):
         j = int(rng.integers(len(labels)))
@@ -115,7 +123,7 @@ def _draw_seabed(sb: dict, spec: DatasetSpec, rng) -> dict:
              "tilt_deg": float(rng.uniform(-180, 180)), "bury": float(rng.uniform(0.1, 0.4))}
         if mesh:
             o["mesh"] = mesh
-            o["reflectance"] = {"library": spec.reflectances, "index": j, "label": labels[j]}
+            o["reflectance"] = {"library": sb.get("rock_reflectances", "benthic"), "index": j, "label": labels[j]}
         return o
 
     rocks = [placed("mesh", _loguniform(rng, sb["rock_size_m"]), str(rng.choice(meshes)))
@@ -168,7 +176,6 @@ def _seabed_targets(rec: dict, camera, spec: DatasetSpec) -> list:
     right, up, fwd = (np.asarray(a, float) for a in camera.frame())
     pupil = np.asarray(camera.position_m, float)
     world_up = np.array([0.0, 1.0, 0.0])
-    wl_lib, lib, _ = reflectance_library(spec.reflectances)
     # the drawn objects stand on the seabed where the pixel at their offset looks (charts and disks upright,
     # facing the camera as drawn); rocks and rubble lie in it, partly buried
     objects = [dict(o, at_px=[0.5 + 0.5 * o["offset_frac"][0], 0.5 - 0.5 * o["offset_frac"][1]], bury=-0.5 * 0.75,
@@ -192,7 +199,9 @@ def _seabed_targets(rec: dict, camera, spec: DatasetSpec) -> list:
         rel = c - pupil
         refl_wl, refl = (), ()
         if "reflectance" in o:
-            refl_wl, refl = tuple(wl_lib.tolist()), tuple(np.clip(lib[o["reflectance"]["index"]], 0, 1).tolist())
+            wl_o, lib_o, _ = reflectance_library(o["reflectance"]["library"])
+            r = lib_o[o["reflectance"]["index"]] * o["reflectance"].get("scale", 1.0)
+            refl_wl, refl = tuple(wl_o.tolist()), tuple(np.clip(r, 0, 1).tolist())
         out.append(Target(kind=o["kind"], distance_m=max(float(rel @ fwd), 1e-3), size_m=size,
                           mesh_path=o.get("mesh"), offset_m=(float(rel @ right), float(rel @ up)),
                           yaw_deg=o["yaw_deg"], pitch_deg=o["pitch_deg"], tilt_deg=o["tilt_deg"],

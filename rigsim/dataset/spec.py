@@ -49,6 +49,7 @@
     rock_size_m = [0.15, 0.6]                     # log-uniform sizes
     rubble = [0, 25]
     rubble_size_m = [0.03, 0.1]
+    rock_reflectances = "benthic"                 # rocks covered in sand or algae (Maritorena et al. 1994)
     extent_m = 12.0                               # the patch's side and its grid (>= 4 cells a ripple)
     cells = 384
 
@@ -206,7 +207,7 @@ class SceneRanges(FileModel):
     kinds: _Names = ("colorchecker", "white-disk", "mesh")
     meshes: _Names = ()
     size_fraction: value_range(hi=1.0, positive=True) = (0.1, 0.35)
-    reflectances: Literal["training", "colorchecker"] = "training"
+    reflectances: Literal["training", "colorchecker", "benthic"] = "training"
     bottom_probability: _Probability = 0.5
     bottom_altitude_m: value_range(positive=True) = (0.6, 3.0)
 
@@ -241,6 +242,7 @@ class SeabedRanges(FileModel):
     rubble_size_m: value_range(positive=True, hi=1.0) = (0.03, 0.1)
     extent_m: Annotated[Real, Field(ge=2.0, le=100.0)] = 12.0
     cells: Annotated[Int, Field(ge=16, le=2048)] = 384
+    rock_reflectances: Literal["benthic", "training", "colorchecker"] = "benthic"
 
 
 class DaylightRanges(FileModel):

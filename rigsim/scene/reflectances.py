@@ -7,6 +7,9 @@
   — stated values, not measurements (:data:`BLACK_REFLECTANCE`, :data:`WHITE_REFLECTANCE`);
 * bottom: generic sand (``data/targets/sand_generic_assumed.csv`` — an assumption, see its
   header; :func:`reflectance_sand_assumed`);
+* sea-bottom types measured by Maritorena, Morel & Gentili (1994): coral sand, green, brown and red
+  (coralline) algae, 350–800 nm, held to 830 nm (``data/targets/benthic_maritorena_1994.csv``;
+  :func:`reflectance_benthic_Maritorena1994`) — the seabed's sand and the rocks' covers;
 * a user's CSV ``wavelength_nm, reflectance`` (:func:`reflectance_from_csv`).
 """
 
@@ -21,7 +24,8 @@ from rigsim.data import load_table, read_csv_table
 from rigsim.errors import ConfigError, DataError
 
 __all__ = ["REFLECTANCE_WAVELENGTHS_NM", "BLACK_REFLECTANCE", "WHITE_REFLECTANCE", "MESH_DEFAULT_REFLECTANCE",
-           "reflectance_colorchecker_Ohta", "reflectance_sand_assumed", "reflectance_from_csv"]
+           "reflectance_colorchecker_Ohta", "reflectance_sand_assumed", "reflectance_benthic_Maritorena1994",
+           "reflectance_from_csv"]
 
 #: Wavelengths at which target reflectances are tabulated (nm): 360–830, 5 nm.
 REFLECTANCE_WAVELENGTHS_NM = np.arange(360.0, 830.0 + 0.5, 5.0)
@@ -57,6 +61,15 @@ def reflectance_sand_assumed(wavelength_nm=REFLECTANCE_WAVELENGTHS_NM) -> np.nda
     """Generic sand bottom reflectance (assumed, see data/targets/sand_generic_assumed.csv)."""
     t = load_table("targets/sand_generic_assumed.csv")
     return _hold(t["wavelength_nm"], t["reflectance"], wavelength_nm)
+
+
+def reflectance_benthic_Maritorena1994(wavelength_nm=REFLECTANCE_WAVELENGTHS_NM) -> dict[str, np.ndarray]:
+    """Sea-bottom reflectances of Maritorena, Morel & Gentili (1994), Limnol. Oceanogr. 39(7):1689–1703,
+    Fig. 6: ``coral_sand``, ``green_algae``, ``brown_algae``, ``red_algae`` (0–1) at ``wavelength_nm``,
+    edge-held outside 350–800 nm (see the data file's header for the species)."""
+    t = load_table("targets/benthic_maritorena_1994.csv")
+    return {k: _hold(t["wavelength_nm"], t[k], wavelength_nm)
+            for k in ("coral_sand", "green_algae", "brown_algae", "red_algae")}
 
 
 def reflectance_from_csv(path: str | Path, wavelength_nm=REFLECTANCE_WAVELENGTHS_NM) -> np.ndarray:

@@ -41,6 +41,7 @@ from rigsim.scene.reflectances import (
     MESH_DEFAULT_REFLECTANCE,
     REFLECTANCE_WAVELENGTHS_NM,
     WHITE_REFLECTANCE,
+    reflectance_benthic_Maritorena1994,
     reflectance_colorchecker_Ohta,
     reflectance_sand_assumed,
 )
@@ -240,7 +241,8 @@ def target_surfaces(target: Target, camera: Camera) -> tuple[Surface, ...]:
         return (Surface(name="seabed", shape="mesh", center_m=_t3(m[:3, 3]), u_axis=_t3(bu), v_axis=_t3(ahead),
                         normal=_t3(world_up), size_m=(extent, extent),
                         wavelength_nm=tuple(REFLECTANCE_WAVELENGTHS_NM.tolist()),
-                        reflectance=tuple(_target_reflectance(target, reflectance_sand_assumed()).tolist()),
+                        reflectance=tuple(_target_reflectance(
+                            target, reflectance_benthic_Maritorena1994()["coral_sand"]).tolist()),
                         object_id=1, mesh_path=str(Path(path).resolve()),
                         to_world=tuple(tuple(float(x) for x in row) for row in m)),)
     if kind == "mesh":

@@ -79,3 +79,39 @@ def test_a_grid_too_coarse_for_the_ripples_is_refused():
     assert "\n" not in str(e.value) and "seabed.cells" in str(e.value)
     with pytest.raises(ConfigError, match="slope_deg"):
         SeabedSpec(slope_deg=60.0)
+
+
+def test_benthic_reflectances_have_the_features_of_their_kinds():
+    """Maritorena et al. (1994)'s bottom types as loaded: carbonate sand brightest everywhere in the
+    visible and rising to the red; every alga dips at chlorophyll a's red absorption (~675 nm) and rises
+    into the near infrared; the green alga peaks in the green, the coralline red alga in the orange-red;
+    held beyond the table (800 nm) to 830 nm."""
+    from rigsim.scene.reflectances import REFLECTANCE_WAVELENGTHS_NM as wl, reflectance_benthic_Maritorena1994
+
+    r = reflectance_benthic_Maritorena1994()
+    vis = (wl >= 400) & (wl <= 700)
+    for k in ("green_algae", "brown_algae", "red_algae"):
+        assert np.all(r["coral_sand"][vis] > r[k][vis])
+        i675 = int(np.argmin(np.abs(wl - 675)))
+        assert r[k][i675] < r[k][int(np.argmin(np.abs(wl - 650)))] and r[k][i675] < r[k][int(np.argmin(np.abs(wl - 700)))]
+        assert r[k][-1] > 2 * r[k][i675]
+    assert np.all(np.diff(r["coral_sand"][vis]) > 0)
+    mid = (wl >= 450) & (wl <= 650)  # (below the red edge)
+    assert 540 <= wl[mid][np.argmax(r["green_algae"][mid])] <= 560
+    assert 590 <= wl[mid][np.argmax(r["red_algae"][mid])] <= 650
+    assert all(np.all(v[wl >= 800] == v[wl == 800][0]) for v in r.values())
+
+
+def test_the_seabed_is_coral_sand_and_rocks_wear_benthic_covers():
+    from rigsim.dataset import load_dataset_spec
+    from rigsim.dataset.sample import build_sample_scene, draw_sample
+    from rigsim.scene.reflectances import reflectance_benthic_Maritorena1994
+    from rigsim.scene.surfaces import target_surfaces
+
+    spec = load_dataset_spec("datasets/seabed.toml")
+    rec = draw_sample(spec, 3, 0)
+    scene, _ = build_sample_scene(spec, rec)
+    bed = target_surfaces(scene.targets[0], scene.camera)[0]
+    np.testing.assert_allclose(bed.reflectance, reflectance_benthic_Maritorena1994()["coral_sand"])
+    covers = {o["reflectance"]["label"] for o in rec["seabed"]["rocks"] + rec["seabed"]["rubble"]}
+    assert covers and covers <= {"coral_sand", "green_algae", "brown_algae", "red_algae"}
