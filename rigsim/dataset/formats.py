@@ -209,15 +209,17 @@ def pose(camera) -> dict:
 
 
 # ----------------------------------------------------------------------------------------- labels
-def categories_for(kinds, meshes) -> list[dict]:
-    """COCO categories of a dataset: its object kinds (a mesh kind by its file's stem), then
-    :data:`SNOW_CATEGORY`; ids from 1 in that order (stable for a spec)."""
+def categories_for(kinds, meshes, rock_meshes=()) -> list[dict]:
+    """COCO categories of a dataset: its object kinds (a mesh kind by its file's stem), the meshes of a
+    seabed's rocks and rubble (``rock_meshes``, by stem), then :data:`SNOW_CATEGORY`; ids from 1 in that
+    order (stable for a spec)."""
     names = []
     for k in kinds:
         if k == "mesh":
             names += [Path(m).stem for m in meshes]
         elif k not in STUFF_KINDS:
             names.append(k)
+    names += [Path(m).stem for m in rock_meshes]
     names.append(SNOW_CATEGORY)
     seen = list(dict.fromkeys(names))
     return [{"id": i + 1, "name": n, "supercategory": "marine-snow" if n == SNOW_CATEGORY else "object"}

@@ -16,7 +16,7 @@ import numpy as np
 
 from rigsim.dataset.spec import DatasetSpec
 
-__all__ = ["draw_sample", "compute_sample", "reflectance_library"]
+__all__ = ["draw_sample", "compute_sample", "reflectance_library", "spec_categories"]
 
 
 @functools.lru_cache(maxsize=None)
@@ -143,6 +143,14 @@ def _draw_seabed(sb: dict, spec: DatasetSpec, rng) -> dict:
 
 
 _ROCK = str(Path(__file__).resolve().parents[2] / "data" / "meshes" / "rock.obj")
+
+
+def spec_categories(spec: DatasetSpec) -> list[dict]:
+    """The COCO categories of a spec's samples (:func:`rigsim.dataset.formats.categories_for`)."""
+    from rigsim.dataset.formats import categories_for
+
+    rocks = (list(spec.meshes) or [_ROCK]) if spec.seabed else []
+    return categories_for(spec.kinds, spec.meshes, rocks)
 
 
 def pitched_rig(rig, pitch_deg: float):
@@ -375,11 +383,11 @@ def compute_sample(args: tuple[DatasetSpec, int, int, dict | None]) -> dict:
     # the light that reached a surface after forward (small-angle) scattering on a leg: the rest of the
     # noise-free image once the unscattered light, the backscatter and the particles' own are taken out
     forward = total - direct - backscatter - extra.get("particles_linear", 0.0)
-    from rigsim.dataset.formats import categories_for, coco_annotations, depth_maps, instances, intrinsics, pose
+    from rigsim.dataset.formats import coco_annotations, depth_maps, instances, intrinsics, pose
 
     rng_m, z_m = depth_maps(rng_m, scene.camera)
     inst, inst_list = instances(si.layers["object_id"], legend, scene.targets)
-    cats = categories_for(spec.kinds, spec.meshes)
+    cats = spec_categories(spec)
     anns = coco_annotations(inst, inst_list, cats, index, extra.get("specks"))
     camera = {**intrinsics(scene.camera, spec.width, spec.height), **pose(scene.camera)}
     rec.update({

@@ -250,11 +250,11 @@ def run_dataset(spec: DatasetSpec, n: int, out: str | Path, *, seed: int = 0, sc
         remove_stale_temp_files(out)  # what a killed run was writing
         for f in drop_unreadable_records(out, "samples/*/record.json", ("index", "water", "objects")):
             log.warning("%s was damaged: computing that sample again", f)
-        from rigsim.dataset.formats import categories_for
+        from rigsim.dataset.sample import spec_categories
 
         atomic_write_text(out / "dataset.json",
                           json.dumps({"spec": spec.describe(), "seed": seed, "n": n,
-                                      "categories": categories_for(spec.kinds, spec.meshes)}, indent=1))
+                                      "categories": spec_categories(spec)}, indent=1))
         overrides = overrides or {}
         items = [(spec, i, seed, overrides.get(i)) for i in range(n)]
         try:

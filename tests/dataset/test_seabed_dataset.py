@@ -93,8 +93,10 @@ def test_seabed_samples_label_objects_but_not_the_sand(spec, tmp_path):
         assert len(bed) == 1 and bed[0]["stuff"]
         assert (inst == bed[0]["id"]).mean() > 0.3  # the rig looks down at the sand
         annotated = {a["instance_id"] for a in coco["annotations"] if a["image_id"] == i and "instance_id" in a}
-        assert bed[0]["id"] not in annotated and annotated  # rocks and the chart are; the sand is not
-        assert {it["category"] for it in rec["instances"] if it["id"] in annotated} <= {"colorchecker", "rock"}
+        visible = {it["id"] for it in rec["instances"] if not it["stuff"] and (inst == it["id"]).any()}
+        assert bed[0]["id"] not in annotated and annotated == visible  # every visible rock and chart; not the sand
+        assert {it["category"] for it in rec["instances"] if it["id"] in annotated} == {"colorchecker", "rock"}
+    assert [c["name"] for c in coco["categories"]] == ["colorchecker", "rock", "marine-snow"]
 
 
 @pytest.mark.render
