@@ -188,11 +188,12 @@ def intrinsics(camera, width: int, height: int, *, grid: int = 41, reference_m: 
 
 
 def _project_opencv(p_cam: np.ndarray, K: np.ndarray, dist: np.ndarray) -> np.ndarray:
-    """OpenCV's projection (radial terms only) of camera-frame points (…, 3) to pixels (…, 2)."""
-    x, y = p_cam[..., 0] / p_cam[..., 2], p_cam[..., 1] / p_cam[..., 2]
-    r2 = x * x + y * y
-    f = 1 + dist[0] * r2 + dist[1] * r2 ** 2 + dist[4] * r2 ** 3
-    return np.stack([K[0, 0] * x * f + K[0, 2], K[1, 1] * y * f + K[1, 2]], -1)
+    """OpenCV's projection (:func:`cv2.projectPoints`) of camera-frame points (…, 3) to pixels (…, 2)."""
+    import cv2
+
+    pts = np.ascontiguousarray(p_cam.reshape(-1, 1, 3), np.float64)
+    img, _ = cv2.projectPoints(pts, np.zeros(3), np.zeros(3), K, dist)
+    return img.reshape(p_cam.shape[:-1] + (2,))
 
 
 def pose(camera) -> dict:

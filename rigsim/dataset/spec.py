@@ -292,7 +292,8 @@ def load_dataset_spec(path: str | Path) -> DatasetSpec:
             SeabedSpec(extent_m=sb.extent_m, cells=sb.cells, ripple_wavelength_m=sb.ripple_wavelength_m[0],
                        ripple_height_m=sb.ripple_height_m[1])
         except ConfigError as exc:
-            raise ConfigError(exc.message, file=path, field=exc.field, allowed=exc.allowed) from None
+            raise ConfigError(exc.message, file=path, field="seabed." + str(exc.field).rsplit(".", 1)[-1],
+                              allowed=exc.allowed) from None
 
     from rigsim.water.presets import preset
 

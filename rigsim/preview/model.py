@@ -1151,6 +1151,16 @@ _SUN_RAY_M = 1000.0
 _NORMAL_GRID = (33, 65)
 
 
+def _diffuse_irradiance(diffuse: np.ndarray, dirs: np.ndarray, dw: float, normals: np.ndarray) -> np.ndarray:
+    """(U, B) irradiance of the diffuse field (B, nθ, nφ radiances over its bins, sub-sampled directions
+    ``dirs`` of solid angle ``dw`` each: :meth:`DaylightField.bin_directions`) on surfaces of unit normals
+    ``normals`` (U, 3): the cosine-weighted integral over the hemisphere about each normal."""
+    out = [np.einsum("btp,ntp->nb", diffuse,
+                     np.clip(np.einsum("tpsk,nk->ntps", dirs, normals[a:a + 64]), 0.0, None).sum(axis=-1) * dw)
+           for a in range(0, len(normals), 64)]  # (64 normals at a time: bounded memory)
+    return np.concatenate(out) if out else np.zeros((0, diffuse.shape[0]))
+
+
 def _on_normal_grid(grid: np.ndarray, n: np.ndarray) -> np.ndarray:
     """Bilinear interpolation of ``grid`` (nθ, nφ, B) at unit normals ``n`` (N, 3)."""
     nt, nph = grid.shape[:2]
@@ -1181,9 +1191,7 @@ class _Daylight:
         normals = surf.normal if len(surf) else np.zeros((0, 3))
         sides = np.round(np.stack([normals, -normals], axis=1).reshape(-1, 3), 9)
         uniq, inv = np.unique(sides, axis=0, return_inverse=True)
-        cosw = np.stack([np.clip(dirs @ n, 0.0, None).sum(axis=-1) * dw for n in uniq]) if len(uniq) else \
-            np.zeros((0,) + dirs.shape[:2])
-        e_dif = np.einsum("btp,utp->ub", day.diffuse[idx], cosw)[np.asarray(inv).ravel()]
+        e_dif = _diffuse_irradiance(day.diffuse[idx], dirs, dw, uniq)[np.asarray(inv).ravel()]
         # meshes have a normal per sample: the diffuse irradiance on a grid of normals (zenith × azimuth
         # nodes), interpolated bilinearly (the field is smooth in the normal: a cosine-weighted integral)
         self.is_mesh = np.r_[False, surf.is_mesh] if len(surf) else np.zeros(1, bool)
@@ -1193,10 +1201,7 @@ class _Daylight:
             ph = np.linspace(-np.pi, np.pi, _NORMAL_GRID[1])
             TH, PH = np.meshgrid(th, ph, indexing="ij")
             nodes = np.stack([np.sin(TH) * np.sin(PH), np.cos(TH), np.sin(TH) * np.cos(PH)], -1).reshape(-1, 3)
-            grid = np.concatenate([
-                np.einsum("btp,ntp->nb", day.diffuse[idx],
-                          np.clip(np.einsum("tpsk,nk->ntps", dirs, nodes[a:a + 64]), 0.0, None).sum(axis=-1) * dw)
-                for a in range(0, len(nodes), 64)]).reshape(TH.shape + (len(idx),))
+            grid = _diffuse_irradiance(day.diffuse[idx], dirs, dw, nodes).reshape(TH.shape + (len(idx),))
         self.t = {dt: dict(beam=day.beam[idx].astype(dt), k_beam=day.k_beam[idx].astype(dt),
                            k_diffuse=self.k.astype(dt), c=self.c.astype(dt), e_dif=e_dif.astype(dt),
                            e_grid=None if grid is None else grid.astype(dt))

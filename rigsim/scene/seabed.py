@@ -31,10 +31,14 @@ import hashlib
 import json
 import math
 import os
-from dataclasses import asdict, dataclass
+from dataclasses import asdict
 from pathlib import Path
+from typing import Annotated
 
 import numpy as np
+from pydantic import Field, model_validator
+
+from rigsim.schema import Int, Real, Unit, frozen_type, invalid
 
 __all__ = ["SeabedSpec", "height_at", "seabed_mesh", "seabed_mesh_file", "seabed_points", "AHEAD_FRACTION", "RELIEF_MODES"]
 
@@ -44,37 +48,33 @@ RELIEF_MODES = 24
 AHEAD_FRACTION = 0.3
 
 
-@dataclass(frozen=True)
+def _range(lo: float, hi: float, unit: str = "m"):
+    return Annotated[Real, Field(ge=lo, le=hi), Unit(unit)]
+
+
+@frozen_type
 class SeabedSpec:
-    """Parameters of a seabed patch (lengths in m, angles in deg)."""
+    """Parameters of a seabed patch (lengths in m, angles in deg); a bad one is a one-line ConfigError."""
 
-    seed: int = 0
-    extent_m: float = 12.0
-    cells: int = 384
-    ripple_wavelength_m: float = 0.25
-    ripple_height_m: float = 0.03
-    ripple_direction_deg: float = 0.0
-    relief_m: float = 0.12
-    relief_scale_m: float = 2.5
-    slope_deg: float = 0.0
-    slope_direction_deg: float = 0.0
+    seed: Annotated[Int, Field(ge=0)] = 0
+    extent_m: _range(0.5, 200.0) = 12.0
+    cells: Annotated[Int, Field(ge=4, le=2048)] = 384
+    ripple_wavelength_m: _range(0.01, 10.0) = 0.25
+    ripple_height_m: _range(0.0, 1.0) = 0.03
+    ripple_direction_deg: Annotated[Real, Unit("deg")] = 0.0
+    relief_m: _range(0.0, 10.0) = 0.12
+    relief_scale_m: _range(0.05, 100.0) = 2.5
+    slope_deg: _range(0.0, 45.0, "deg") = 0.0
+    slope_direction_deg: Annotated[Real, Unit("deg")] = 0.0
 
-    def __post_init__(self):
-        from rigsim.errors import ConfigError
-
-        checks = {"extent_m": (0.5, 200.0), "cells": (4, 2048), "ripple_wavelength_m": (0.01, 10.0),
-                  "ripple_height_m": (0.0, 1.0), "relief_m": (0.0, 10.0), "relief_scale_m": (0.05, 100.0),
-                  "slope_deg": (0.0, 45.0)}
-        for name, (lo, hi) in checks.items():
-            v = getattr(self, name)
-            if isinstance(v, bool) or not isinstance(v, (int, float)) or not (math.isfinite(v) and lo <= v <= hi):
-                raise ConfigError(f"{name} must be in [{lo:g}, {hi:g}], got {v!r}", field=f"seabed.{name}",
-                                  allowed=f"{lo:g} … {hi:g}")
+    @model_validator(mode="after")
+    def _check(self) -> "SeabedSpec":
         if self.extent_m / self.cells > self.ripple_wavelength_m / 4 and self.ripple_height_m > 0:
-            raise ConfigError(f"{self.cells} cells over {self.extent_m:g} m cannot draw ripples "
-                              f"{self.ripple_wavelength_m:g} m long", field="seabed.cells",
-                              allowed=f">= {math.ceil(4 * self.extent_m / self.ripple_wavelength_m)} "
-                                      "(four per ripple wavelength)")
+            raise invalid(f"{self.cells} cells over {self.extent_m:g} m cannot draw ripples "
+                          f"{self.ripple_wavelength_m:g} m long", field="cells",
+                          allowed=f">= {math.ceil(4 * self.extent_m / self.ripple_wavelength_m)} "
+                                  "(four per ripple wavelength)")
+        return self
 
     def key(self) -> str:
         return hashlib.blake2b(json.dumps(asdict(self), sort_keys=True).encode(), digest_size=10).hexdigest()

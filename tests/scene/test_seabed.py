@@ -76,7 +76,7 @@ def test_rays_meet_the_seabed_on_its_surface():
 def test_a_grid_too_coarse_for_the_ripples_is_refused():
     with pytest.raises(ConfigError, match="cannot draw ripples") as e:
         SeabedSpec(extent_m=12.0, cells=100, ripple_wavelength_m=0.2, ripple_height_m=0.02)
-    assert "\n" not in str(e.value) and "seabed.cells" in str(e.value)
+    assert "\n" not in str(e.value) and "SeabedSpec.cells" in str(e.value)
     with pytest.raises(ConfigError, match="slope_deg"):
         SeabedSpec(slope_deg=60.0)
 
