@@ -90,10 +90,11 @@ def main(argv=None):
     ap.add_argument("--photons", type=int, default=400_000)
     ap.add_argument("--width", type=int, default=48)
     ap.add_argument("--height", type=int, default=32)
+    ap.add_argument("--wavelength", type=float, default=550.0, help="the one band, nm")
     a = ap.parse_args(argv)
     rig = load_rig(Path(__file__).resolve().parents[1] / "rigs" / "twin-strobes-45-wide.toml")
     W, H = a.width, a.height
-    wl = np.array([550.0])
+    wl = np.array([a.wavelength])
     print(f"{'water':>12s} {'ψ_c':>5s}  {'veil analytic/traced-A':>24s}  {'disk E analytic/traced-A':>26s}")
     for name in a.waters.split(","):
         water = _water(name)
@@ -105,7 +106,7 @@ def main(argv=None):
             kw = dict(c=c, b=b, kappa_cam=c - b * F, tables=tab, weights=tab.weights_at(wl), width=W, height=H,
                       cutoff_rad=cut, photons=a.photons, grid=max(W, H), classes="A")
             open_sc = Scene(rig=rig, water=water, targets=())
-            pv = render_preview(open_sc, width=W, height=H, wavelengths_nm=wl, bandwidth_nm=1.0, split=True,
+            pv = render_preview(open_sc, width=W, height=H, wavelengths_nm=wl, bandwidth_nm=1.0, split=True, multiple=False,
                                 forward_cutoff_deg=cut_deg)
             ms = trace_multiple(open_sc, scene_surfaces(open_sc), list(open_sc.lights), wl, **kw)
             C, R = np.meshgrid(np.arange(W) + 0.5, np.arange(H) + 0.5)
