@@ -23,7 +23,8 @@ Daylight (``scene.daylight``) is the scene's daylight field
 with the Daylight's sky and photons) and its transport, the same tables and formulas as the
 renderer's: the target is lit by the sun beam (stopped by other targets, and a mesh by itself, when
 ``shadows`` is on, as the renderer's shadow ray) and the diffuse field integrated over the
-hemisphere about its normal (each × its height factor; the diffuse field unoccluded), seen through ``e^{−c s}``
+hemisphere about its normal (each × its height factor; with ``shadows``, less what targets hide of it
+and plus what they reflect in its place, once: :meth:`_Daylight._hidden_diffuse`), seen through ``e^{−c s}``
 (no forward-scattered halo, as the renderer's daylight), and each line of sight collects
 Duntley's path radiance ``L_amb(v)(1 − e^{−(c − K v_y) s})``, so a black target's contrast is
 ``−e^{−c s}`` along a horizontal line of sight, as in the renderer.
@@ -40,7 +41,8 @@ percentile).
 
 What is not in it: multiple wide-angle scattering (the "glow" of turbid water
 beyond a few optical depths), light scattered by more than the forward cut-off
-angle that then lights the target, interreflections, port optics (radiance is the
+angle that then lights the target, interreflections (but the daylight one target reflects onto
+another in place of the diffuse field it hides, above), port optics (radiance is the
 in-water radiance at the port, as the renderer's).  The validation in
 ``benchmarks/bench_preview.py`` shows where this matters.
 
@@ -929,7 +931,7 @@ class _Group:
             scattered += (self.rho_c[h.oid] / np.pi * self.ms.irradiance_at(self.surf, h.oid, h.p, h.nrm)).astype(dt)
         day_lit = None
         if self.day is not None and N:
-            day_lit = K.rho_c[h.oid] / np.pi * self.day.irradiance(h, dt)
+            day_lit = K.rho_c[h.oid] / np.pi * self.day.irradiance(h, dt, self.rho_c)
             clear += day_lit
         if self.water is None:
             return clear, None, None, None
@@ -1150,6 +1152,37 @@ _SUN_RAY_M = 1000.0
 #: irradiance of mesh samples is interpolated (every 5.6° in each).
 _NORMAL_GRID = (33, 65)
 
+#: Directions per surface sample (a 4 × 4 stratified cosine-weighted pattern) over which targets are
+#: looked for that hide the diffuse daylight (with ``shadows``): :meth:`_Daylight._hidden_diffuse`.
+_HIDDEN_SKY_RAYS = 16
+
+
+def _hash2(p: np.ndarray) -> np.ndarray:
+    """(N, 2) pseudo-random numbers in [0, 1) from points ``p`` (N, 3): the same point, the same numbers
+    (a sample's directions do not depend on how the image is cut into tiles, nor on the run)."""
+    q = np.round(np.asarray(p, float) * 1e5).astype(np.int64).view(np.uint64)
+    h = q[:, 0] * np.uint64(0x9E3779B97F4A7C15) ^ q[:, 1] * np.uint64(0xC2B2AE3D27D4EB4F) \
+        ^ q[:, 2] * np.uint64(0x165667B19E3779F9)
+    out = []
+    for salt in (np.uint64(0x27D4EB2F165667C5), np.uint64(0x94D049BB133111EB)):
+        x = h ^ salt
+        x ^= x >> np.uint64(31)
+        x *= np.uint64(0xBF58476D1CE4E5B9)
+        x ^= x >> np.uint64(29)
+        out.append((x >> np.uint64(11)).astype(np.float64) / float(1 << 53))
+    return np.stack(out, -1)
+
+
+def _tangent_frame(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Two unit tangents completing each unit normal ``n`` (N, 3) to an orthonormal frame (Duff et al.
+    2017, "Building an orthonormal basis, revisited", JCGT 6(1))."""
+    sgn = np.where(n[:, 2] >= 0, 1.0, -1.0)
+    a = -1.0 / (sgn + n[:, 2])
+    b = n[:, 0] * n[:, 1] * a
+    t1 = np.stack([1.0 + sgn * n[:, 0] ** 2 * a, sgn * b, -sgn * n[:, 0]], -1)
+    t2 = np.stack([b, sgn + n[:, 1] ** 2 * a, -n[:, 1]], -1)
+    return t1, t2
+
 
 def _diffuse_irradiance(diffuse: np.ndarray, dirs: np.ndarray, dw: float, normals: np.ndarray) -> np.ndarray:
     """(U, B) irradiance of the diffuse field (B, nθ, nφ radiances over its bins, sub-sampled directions
@@ -1208,30 +1241,96 @@ class _Daylight:
                   for dt in (_F32, _F64)}
         self.day32 = dataclasses.replace(day, diffuse=day.diffuse.astype(np.float32))
 
-    def irradiance(self, h: _Hits, dt) -> np.ndarray:
+    def irradiance(self, h: _Hits, dt, rho: np.ndarray | None = None) -> np.ndarray:
         """Daylight irradiance (N, B) on surface samples (facing the camera).
 
-        Sun beam × cos × the beam's height factor × caustics (with ``shadows``: zero where a target
-        stops the beam), plus the diffuse field integrated over the hemisphere about the normal × its
-        height factor (unoccluded: no light from other targets and none of the sky they hide).
+        Sun beam × cos × the beam's height factor × caustics, plus the diffuse field integrated over the
+        hemisphere about the normal × its height factor.  With ``shadows`` (as the renderer's shadow ray and
+        its cosine-sampled diffuse rays): the sun beam is zero where a target stops it, and the diffuse
+        field loses what targets hide (:meth:`_hidden_diffuse`; ``rho`` (objects + 1, B) are the
+        targets' reflectances, for the light the hiding targets reflect in its place).
         """
         t = self.t[dt]
         dy = (h.p[..., 1] - self.day.y0).astype(dt)[..., None]
-        cos_sun = np.clip(-(h.nrm @ self.sun), 0.0, None)
-        if self.shadows and len(h):  # the sun beam stopped by a target on the way (the renderer's shadow ray)
+        e_sun = self._sun(h.p, h.nrm, h.oid, dt)
+        e_dif = self._diffuse_about(h.oid, h.side, h.nrm, dt)
+        out = e_sun + e_dif * height_factor(t["k_diffuse"], dy, np.exp)
+        if self.shadows and len(h) and rho is not None:  # (≥ 0: the estimate is noisy where all is hidden)
+            out = np.maximum(out - self._hidden_diffuse(h, rho).astype(dt), 0.0)
+        return out
+
+    def _sun(self, p: np.ndarray, nrm: np.ndarray, oid: np.ndarray, dt) -> np.ndarray:
+        """(N, B) the sun beam's irradiance at points ``p`` of normals ``nrm`` on objects ``oid`` (with
+        ``shadows``: zero where a target stops it on the way — the renderer's shadow ray)."""
+        t = self.t[dt]
+        cos_sun = np.clip(-(nrm @ self.sun), 0.0, None)
+        if self.shadows and len(p):
             lit = np.flatnonzero(cos_sun > 0)
             if lit.size:
-                p = h.p[lit] + 1e-7 * h.nrm[lit]
-                far = p - _SUN_RAY_M * self.sun
-                cos_sun[lit] = np.where(occluded(self.surf, p, far, exclude=h.oid[lit]), 0.0, cos_sun[lit])
-        e_sun = (cos_sun * self.day.caustic(h.p)).astype(dt)[..., None] * t["beam"] \
+                q = p[lit] + 1e-7 * nrm[lit]
+                far = q - _SUN_RAY_M * self.sun
+                cos_sun[lit] = np.where(occluded(self.surf, q, far, exclude=oid[lit]), 0.0, cos_sun[lit])
+        dy = (p[..., 1] - self.day.y0).astype(dt)[..., None]
+        return (cos_sun * self.day.caustic(p)).astype(dt)[..., None] * t["beam"] \
             * height_factor(t["k_beam"], dy, np.exp)
-        e_dif = t["e_dif"][2 * (h.oid - 1) + h.side]
+
+    def _diffuse_about(self, oid: np.ndarray, side: np.ndarray, nrm: np.ndarray, dt) -> np.ndarray:
+        """(N, B) the diffuse field's irradiance at the field's height on surfaces of normals ``nrm``
+        (objects ``oid``, ``side`` 1 where ``nrm`` is the flat piece's normal reversed), unoccluded."""
+        t = self.t[dt]
+        e_dif = t["e_dif"][2 * (oid - 1) + side]
         if t["e_grid"] is not None:
-            m = self.is_mesh[h.oid]
+            m = self.is_mesh[oid]
             if np.any(m):
-                e_dif[m] = _on_normal_grid(t["e_grid"], h.nrm[m])
-        return e_sun + e_dif * height_factor(t["k_diffuse"], dy, np.exp)
+                e_dif[m] = _on_normal_grid(t["e_grid"], nrm[m])
+        return e_dif
+
+    def _hidden_diffuse(self, h: _Hits, rho: np.ndarray) -> np.ndarray:
+        """(N, B) float64: the diffuse daylight that targets hide from each sample, less the light they
+        reflect towards it in its place — the renderer's rule for a cosine-sampled direction that meets
+        an object at ``s``: the field's path radiance up to it plus ``e^{−c s}`` × the object's radiance.
+
+        The field beyond the object, ``L_amb(v) e^{K Δy} e^{−(c − K v_y) s}`` (what Duntley's path
+        radiance :func:`~rigsim.scene.daylight_field.path_radiance` leaves out at length ``s``), is hidden;
+        the object's radiance is its reflectance / π × the daylight on it (the sun if it reaches it, and the
+        diffuse field about its normal, itself unoccluded: one bounce).  Estimated with
+        :data:`_HIDDEN_SKY_RAYS` cosine-weighted directions per sample (stratified, rotated by a hash of the
+        sample's position: deterministic, the same in every tiling), ``E = π/n Σ L``; exact (zero) where
+        nothing is in the way.
+        """
+        p, nrm, n = h.p, h.nrm, _HIDDEN_SKY_RAYS
+        N, B = len(p), len(self.c)
+        out = np.zeros((N, B))
+        if not N:
+            return out
+        g = int(round(np.sqrt(n)))
+        jit = _hash2(p)  # (N, 2) in [0, 1)
+        i, j = np.divmod(np.arange(g * g), g)
+        x1 = ((i[None, :] + jit[:, :1]) / g) % 1.0
+        x2 = ((j[None, :] + jit[:, 1:]) / g) % 1.0
+        r, phi = np.sqrt(x1), 2 * np.pi * x2
+        local = np.stack([r * np.cos(phi), r * np.sin(phi), np.sqrt(np.clip(1.0 - x1, 0.0, None))], -1)
+        t1, t2 = _tangent_frame(nrm)
+        d = local[..., :1] * t1[:, None] + local[..., 1:2] * t2[:, None] + local[..., 2:] * nrm[:, None]
+        o = p + (1e-7 * (1.0 + np.abs(p).max(axis=1)))[:, None] * nrm
+        s, oid, nq = cast_rays(self.surf, np.broadcast_to(o[:, None], d.shape), d, normals=True)
+        hit = np.isfinite(s) & (oid > 0)
+        if not hit.any():
+            return out
+        k, _ = np.nonzero(hit)
+        dd, s, oid, nq = d[hit], s[hit], oid[hit], nq[hit]
+        back = np.sum(nq * dd, axis=-1) > 0  # the normal it meets, turned towards the sample
+        nq = np.where(back[:, None], -nq, nq)
+        side = back.astype(np.int64)  # (for a flat piece: its own normal reversed)
+        q = p[k] + s[:, None] * dd
+        dy = (p[k, 1] - self.day.y0)[:, None]
+        beyond = self.day.radiance(dd, self.wl) * np.exp(self.k * dy - (self.c - self.k * dd[:, 1:2]) * s[:, None])
+        e_q = self._sun(q, nq, oid, _F64) + self._diffuse_about(oid, side, nq, _F64) \
+            * height_factor(self.k, (q[:, 1] - self.day.y0)[:, None], np.exp)
+        own = rho[oid] / np.pi * e_q * np.exp(-self.c * s[:, None])
+        first = np.flatnonzero(np.r_[True, k[1:] != k[:-1]])  # (k ascends: np.nonzero's order)
+        out[k[first]] = np.add.reduceat(beyond - own, first, axis=0)
+        return out * (np.pi / (g * g))
 
     def path_radiance(self, o_y: np.ndarray, d: np.ndarray, t_hit: np.ndarray) -> np.ndarray:
         """Duntley's path radiance along each pixel ray (…, B) float32, as the renderer's.
