@@ -19,13 +19,23 @@ The mesh is a regular grid of ``cells`` × ``cells`` squares (two triangles each
 atomically) — both engines then read it like any mesh target (:func:`rigsim.scene.meshes.read_mesh`).
 :func:`height_at` gives the same heights anywhere, to rest objects on the seabed.
 
+Beyond the patch the seabed goes on to ``far_m`` (:func:`seabed_skirt`, written beside the patch as
+``…-far.ply``, :func:`skirt_path`): rings of vertices growing by :data:`SKIRT_GROWTH` per ring from the
+patch's own boundary vertices (the seam is watertight), the slope continuing and the relief fading out
+over one extent, without ripples (at that range they are below a pixel and the water hides them) — so
+that a camera looking towards the horizon sees sand fade into the water, not the end of a 12 m patch.
+It is a surface of its own (the same target and object), so the fine patch keeps its own texture cells
+for the multiply scattered light.
+
 Placement (:func:`rigsim.scene.surfaces.target_surfaces`): level (mean height 0) ``distance_m``
 below the entrance pupil, its x along the camera's right projected on the horizontal, its centre
-:data:`AHEAD_FRACTION` of the extent ahead of the camera along its horizontal forward direction.
+:data:`AHEAD_FRACTION` of the extent ahead of the camera along its horizontal forward direction (and
+:data:`SIDE_SHIFT` of it to the right).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import hashlib
 import json
@@ -40,12 +50,18 @@ from pydantic import Field, model_validator
 
 from rigsim.schema import Int, Real, Unit, frozen_type, invalid
 
-__all__ = ["SeabedSpec", "height_at", "seabed_mesh", "seabed_mesh_file", "seabed_points", "AHEAD_FRACTION", "RELIEF_MODES"]
+__all__ = ["SeabedSpec", "height_at", "seabed_mesh", "seabed_skirt", "seabed_mesh_file", "skirt_path", "seabed_points",
+           "AHEAD_FRACTION", "SIDE_SHIFT", "RELIEF_MODES", "SKIRT_GROWTH"]
 
 #: Cosine modes of the relief.
 RELIEF_MODES = 24
 #: The patch's centre lies this fraction of its extent ahead of the camera (horizontally).
 AHEAD_FRACTION = 0.3
+#: ... and this fraction of its extent to the camera's right (1.7 mm for 12 m: off the grid lines).
+SIDE_SHIFT = 1e-4 * math.sqrt(2.0)
+#: Each ring of the far seabed is this much farther out than the one inside it (a square ring scaled
+#: about the patch's centre: 20 rings from a 12 m patch to 200 m).
+SKIRT_GROWTH = 1.15
 
 
 def _range(lo: float, hi: float, unit: str = "m"):
@@ -66,6 +82,7 @@ class SeabedSpec:
     relief_scale_m: _range(0.05, 100.0) = 2.5
     slope_deg: _range(0.0, 45.0, "deg") = 0.0
     slope_direction_deg: Annotated[Real, Unit("deg")] = 0.0
+    far_m: _range(0.0, 5000.0) = 200.0
 
     @model_validator(mode="after")
     def _check(self) -> "SeabedSpec":
@@ -74,6 +91,9 @@ class SeabedSpec:
                           f"{self.ripple_wavelength_m:g} m long", field="cells",
                           allowed=f">= {math.ceil(4 * self.extent_m / self.ripple_wavelength_m)} "
                                   "(four per ripple wavelength)")
+        if 0 < self.far_m <= self.extent_m:
+            raise invalid(f"the far seabed ({self.far_m:g} m) must reach beyond the patch ({self.extent_m:g} m)",
+                          field="far_m", allowed=f"0 (none) or > {self.extent_m:g}")
         return self
 
     def key(self) -> str:
@@ -94,7 +114,8 @@ def _modes(spec: SeabedSpec) -> tuple[np.ndarray, np.ndarray, np.ndarray, float]
 
 
 def height_at(spec: SeabedSpec, x, z) -> np.ndarray:
-    """Seabed height (m) at horizontal positions ``(x, z)`` of its own frame (any equal shapes)."""
+    """Seabed height (m) at horizontal positions ``(x, z)`` of its own frame (any equal shapes; on the
+    patch — the far seabed beyond it has no ripples and its relief fades out)."""
     x, z = np.asarray(x, float), np.asarray(z, float)
     k, ph, amp, ph0 = _modes(spec)
     h = np.zeros(np.broadcast(x, z).shape)
@@ -126,6 +147,42 @@ def seabed_mesh(spec: SeabedSpec) -> tuple[np.ndarray, np.ndarray]:
     return V, F
 
 
+def seabed_skirt(spec: SeabedSpec) -> tuple[np.ndarray, np.ndarray]:
+    """``(vertices, faces)`` of the seabed beyond the patch out to ``far_m`` (square rings about the centre,
+    the first the patch's own boundary vertices; see the module docstring); empty for ``far_m = 0``."""
+    if spec.far_m <= 0:
+        return np.zeros((0, 3)), np.zeros((0, 3), np.int64)
+    n, half = spec.cells, spec.extent_m / 2
+    g = np.linspace(-half, half, n + 1)  # (the patch's own grid coordinates: the seam's vertices coincide)
+    lo, hi = np.full(n, -half), np.full(n, half)
+    x0 = np.concatenate([g[:-1], hi, g[::-1][:-1], lo])  # the boundary, once round (4n vertices)
+    z0 = np.concatenate([lo, g[:-1], hi, g[::-1][:-1]])
+    rings = int(math.ceil(math.log(spec.far_m / spec.extent_m) / math.log(SKIRT_GROWTH)))
+    scale = np.minimum(SKIRT_GROWTH ** np.arange(rings + 1), spec.far_m / spec.extent_m)
+    X, Z = scale[:, None] * x0, scale[:, None] * z0
+    Y = np.empty_like(X)
+    Y[0] = height_at(spec, x0, z0)
+    smooth = dataclasses.replace(spec, ripple_height_m=0.0)
+    fade = np.clip(2.0 - scale[1:], 0.0, 1.0)[:, None]  # relief × 1 at the patch's edge, 0 one extent out
+    flat = dataclasses.replace(spec, ripple_height_m=0.0, relief_m=0.0)
+    Y[1:] = fade * height_at(smooth, X[1:], Z[1:]) + (1 - fade) * height_at(flat, X[1:], Z[1:])
+    V = np.stack([X, Y, Z], -1).reshape(-1, 3)
+    m = 4 * n
+    i, j = np.meshgrid(np.arange(rings), np.arange(m), indexing="ij")
+    a, b = i * m + j, i * m + (j + 1) % m
+    c, d = b + m, a + m
+    F = np.concatenate([np.stack([a, b, c], -1).reshape(-1, 3), np.stack([a, c, d], -1).reshape(-1, 3)])
+    nrm = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    F = np.where((nrm[:, 1] < 0)[:, None], F[:, ::-1], F)  # wound with the normals up (+y), as the patch
+    return V, F
+
+
+def skirt_path(patch: str | Path) -> Path:
+    """Where the far seabed of the patch mesh ``patch`` is (it may not exist: no far seabed)."""
+    p = Path(patch)
+    return p.with_name(p.stem + "-far.ply")
+
+
 def _cache_dir() -> Path:
     root = os.environ.get("RIGSIM_CACHE_DIR") or str(Path.home() / ".cache" / "rigsim")
     return Path(root) / "seabeds"
@@ -136,15 +193,21 @@ def seabed_mesh_file(spec: SeabedSpec) -> Path:
     path = _cache_dir() / f"seabed-{spec.key()}.ply"
     if path.is_file():
         return path
+    path.parent.mkdir(parents=True, exist_ok=True)
+    if spec.far_m > 0:  # (first: the patch's file is the sign that both are there)
+        _write_ply(skirt_path(path), *seabed_skirt(spec))
+    _write_ply(path, *seabed_mesh(spec))
+    return path
+
+
+def _write_ply(path: Path, V: np.ndarray, F: np.ndarray) -> None:
+    """A triangle mesh as a binary PLY, atomically."""
     import pyvista as pv
 
-    V, F = seabed_mesh(spec)
-    path.parent.mkdir(parents=True, exist_ok=True)
     mesh = pv.PolyData(V, np.c_[np.full(len(F), 3), F].ravel())
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp.ply")
     mesh.save(str(tmp), binary=True)
     os.replace(tmp, path)
-    return path
 
 
 def seabed_points(spec: SeabedSpec, to_world, origins: np.ndarray, directions: np.ndarray, *,

@@ -28,7 +28,7 @@ with a flat reflectance given by the caller (default 18 % grey) or a CSV.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Literal
 
@@ -172,7 +172,8 @@ def target_surfaces(target: Target, camera: Camera) -> tuple[Surface, ...]:
     tuple of Surface
         Object ids 1…n in order.  ColorChecker: the chart body then the 24
         patches (chart order); disks: one disk; slanted edge: ``black`` (left)
-        and ``white`` (right); bottom: one rectangle; seabed, mesh: one mesh.
+        and ``white`` (right); bottom: one rectangle; seabed: its patch and, where it has one, the
+        seabed beyond (:func:`rigsim.scene.seabed.skirt_path`); mesh: one mesh.
     """
     right, up, fwd = camera.frame()
     pupil = np.asarray(camera.position_m, float)
@@ -222,7 +223,7 @@ def target_surfaces(target: Target, camera: Camera) -> tuple[Surface, ...]:
         return (_flat_piece("bottom", "rectangle", c, bu, bv, world_up, size, size,
                             _target_reflectance(target, reflectance_sand_assumed()), 1),)
     if kind == "seabed":
-        from rigsim.scene.seabed import AHEAD_FRACTION, SeabedSpec, seabed_mesh_file
+        from rigsim.scene.seabed import AHEAD_FRACTION, SIDE_SHIFT, SeabedSpec, seabed_mesh_file, skirt_path
 
         path = target.mesh_path or str(seabed_mesh_file(SeabedSpec()))
         verts = read_mesh(path).vertices
@@ -237,14 +238,22 @@ def target_surfaces(target: Target, camera: Camera) -> tuple[Surface, ...]:
             ahead = -ahead
         m = np.eye(4)
         m[:3, 0], m[:3, 1], m[:3, 2] = bu, world_up, np.cross(bu, world_up)
-        m[:3, 3] = pupil - target.distance_m * world_up + AHEAD_FRACTION * extent * ahead
-        return (Surface(name="seabed", shape="mesh", center_m=_t3(m[:3, 3]), u_axis=_t3(bu), v_axis=_t3(ahead),
-                        normal=_t3(world_up), size_m=(extent, extent),
-                        wavelength_nm=tuple(REFLECTANCE_WAVELENGTHS_NM.tolist()),
-                        reflectance=tuple(_target_reflectance(
-                            target, reflectance_benthic_Maritorena1994()["coral_sand"]).tolist()),
-                        object_id=1, mesh_path=str(Path(path).resolve()),
-                        to_world=tuple(tuple(float(x) for x in row) for row in m)),)
+        # (and a hair to the side: no grid line of the patch in the vertical plane through the camera —
+        # rays in that plane, the middle column of an image of odd width, would run along shared edges,
+        # which single-precision ray casting can miss)
+        m[:3, 3] = pupil - target.distance_m * world_up + AHEAD_FRACTION * extent * ahead + SIDE_SHIFT * extent * bu
+        refl = tuple(_target_reflectance(target, reflectance_benthic_Maritorena1994()["coral_sand"]).tolist())
+        out = [Surface(name="seabed", shape="mesh", center_m=_t3(m[:3, 3]), u_axis=_t3(bu), v_axis=_t3(ahead),
+                       normal=_t3(world_up), size_m=(extent, extent),
+                       wavelength_nm=tuple(REFLECTANCE_WAVELENGTHS_NM.tolist()), reflectance=refl,
+                       object_id=1, mesh_path=str(Path(path).resolve()),
+                       to_world=tuple(tuple(float(x) for x in row) for row in m))]
+        far = skirt_path(path)
+        if far.is_file():  # the seabed beyond the patch (rigsim.scene.seabed): its own surface, same frame
+            far_extent = float(np.max(np.ptp(read_mesh(str(far)).vertices, axis=0)[[0, 2]]))
+            out.append(replace(out[0], name="seabed far", size_m=(far_extent, far_extent),
+                                           object_id=2, mesh_path=str(far.resolve())))
+        return tuple(out)
     if kind == "mesh":
         if target.mesh_path is None:
             raise ConfigError("a mesh target needs mesh_path", field="target")

@@ -140,8 +140,8 @@ def test_a_bad_seabed_table_fails_before_rendering(tmp_path, old, new, pattern):
 
 def test_daylight_samples_are_lit_by_the_sun_too(spec, tmp_path):
     """[daylight] draws a depth and a sun per sample and the scene carries it; its light adds to the
-    strobes' everywhere (the same scene without it is nowhere brighter, and darker in the water above the
-    sand); the dataset writes such a sample."""
+    strobes' everywhere (the same scene without it is nowhere brighter, and darker on the far seabed
+    towards the horizon); the dataset writes such a sample."""
     import dataclasses
 
     from rigsim.preview import render_preview
@@ -155,7 +155,10 @@ def test_daylight_samples_are_lit_by_the_sun_too(spec, tmp_path):
     with_sun = render_preview(scene, **kw).radiant_exposure(1.0)
     without = render_preview(dataclasses.replace(scene, daylight=None), **kw).radiant_exposure(1.0)
     assert np.all(with_sun >= without * (1 - 1e-6))
-    oid = np.asarray(render_preview(scene, layers=("object_id",), **kw).layers["object_id"])
-    assert (oid == 0).sum() > 20 and (with_sun[oid == 0] > 1.01 * without[oid == 0]).all()
+    ids = render_preview(scene, layers=("object_id",), **kw)
+    oid = np.asarray(ids.layers["object_id"])
+    far = [int(k) for k, v in ids.meta["object_ids"].items() if v.endswith("seabed far")]
+    far = (oid == far[0]) | (oid == 0)  # the seabed beyond the patch (or water), towards the horizon
+    assert far.sum() > 20 and (with_sun[far] > 1.01 * without[far]).all()
     out = run_dataset(lit, 1, tmp_path / "sun", seed=2, serial=True, progress=False)
     assert json.loads((out / "samples" / "000000" / "record.json").read_text())["daylight"] == rec["daylight"]

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from rigsim.errors import ConfigError
-from rigsim.scene.seabed import SeabedSpec, height_at, seabed_mesh, seabed_points
+from rigsim.scene.seabed import SeabedSpec, height_at, seabed_mesh, seabed_points, seabed_skirt
 
 
 def test_ripples_have_the_wavelength_and_height_asked_for():
@@ -73,12 +73,53 @@ def test_rays_meet_the_seabed_on_its_surface():
         assert np.all(q[:, 1] > height_at(spec, q[:, 0], q[:, 2]))
 
 
+def test_the_seabed_goes_on_beyond_the_patch_without_a_seam():
+    """The far seabed starts on the patch's own boundary vertices (no crack for a ray to see water
+    through), reaches ``far_m`` (a square of that side), keeps the slope, loses the ripples and relief
+    one extent out, and faces up; and a camera 1.5 m above, looking 5° below the horizontal, sees the
+    seabed (patch + far) in every direction down to the horizon where the patch alone ends at ~10 m."""
+    from rigsim.preview.geometry import cast_rays, scene_surfaces
+    from rigsim.scene.seabed import seabed_mesh_file
+    from rigsim.scene.types import Camera, Port, Rig, Scene, Target
+
+    spec = SeabedSpec(seed=6, extent_m=6.0, cells=120, ripple_wavelength_m=0.2, relief_m=0.1, slope_deg=3.0,
+                      far_m=150.0)
+    V, F = seabed_skirt(spec)
+    P, _ = seabed_mesh(spec)
+    patch_edge = P[(np.abs(P[:, 0]) == 3.0) | (np.abs(P[:, 2]) == 3.0)]
+    ring0 = V[:4 * 120]
+    assert len(patch_edge) == len(ring0)
+    assert {tuple(v) for v in ring0} == {tuple(v) for v in patch_edge}  # the very same vertices
+    assert np.max(np.abs(V[:, [0, 2]])) == pytest.approx(75.0)
+    n = np.cross(V[F[:, 1]] - V[F[:, 0]], V[F[:, 2]] - V[F[:, 0]])
+    assert np.all(n[:, 1] > 0)
+    far = np.max(np.abs(V[:, [0, 2]]), axis=1) > 2 * 3.0  # one extent out: the slope's plane alone
+    flat = SeabedSpec(seed=6, extent_m=6.0, cells=120, ripple_height_m=0.0, relief_m=0.0, slope_deg=3.0, far_m=150.0)
+    np.testing.assert_allclose(V[far, 1], height_at(flat, V[far, 0], V[far, 2]), atol=1e-12)
+    # through the engines' own surfaces: a level seabed (no slope) seen towards the horizon
+    level = SeabedSpec(seed=6, extent_m=12.0, cells=240, ripple_wavelength_m=0.2)
+    cam = Camera(focal_length_mm=20.0, sensor_width_mm=36.0, sensor_height_mm=24.0, port=Port(kind="dome"),
+                 forward=(0.0, -math.sin(math.radians(5.0)), math.cos(math.radians(5.0))),
+                 up=(0.0, math.cos(math.radians(5.0)), math.sin(math.radians(5.0))))
+    surf = scene_surfaces(Scene(Rig("r", cam, ()), None, (Target("seabed", 1.5, mesh_path=str(seabed_mesh_file(level))),)))
+    assert len(surf) == 2  # the patch and the seabed beyond it
+    el = np.radians(np.linspace(-40.0, -1.0, 40))
+    az = np.radians(np.linspace(-40.0, 40.0, 41))
+    E, A = np.meshgrid(el, az)
+    d = np.stack([np.cos(E) * np.sin(A), np.sin(E), np.cos(E) * np.cos(A)], -1)
+    t, oid = cast_rays(surf, np.asarray(cam.position_m, float), d)
+    assert np.all(oid > 0)  # the seabed everywhere below the horizon (down to 1° below it: 86 m away)
+    assert np.any((oid == 2) & (t > 20.0)) and np.any(oid == 1)
+
+
 def test_a_grid_too_coarse_for_the_ripples_is_refused():
     with pytest.raises(ConfigError, match="cannot draw ripples") as e:
         SeabedSpec(extent_m=12.0, cells=100, ripple_wavelength_m=0.2, ripple_height_m=0.02)
     assert "\n" not in str(e.value) and "SeabedSpec.cells" in str(e.value)
     with pytest.raises(ConfigError, match="slope_deg"):
         SeabedSpec(slope_deg=60.0)
+    with pytest.raises(ConfigError, match="far_m"):
+        SeabedSpec(extent_m=12.0, far_m=10.0)
 
 
 def test_benthic_reflectances_have_the_features_of_their_kinds():
