@@ -1313,7 +1313,7 @@ class _Daylight:
         t1, t2 = _tangent_frame(nrm)
         d = local[..., :1] * t1[:, None] + local[..., 1:2] * t2[:, None] + local[..., 2:] * nrm[:, None]
         o = p + (1e-7 * (1.0 + np.abs(p).max(axis=1)))[:, None] * nrm
-        s, oid, nq = cast_rays(self.surf, np.broadcast_to(o[:, None], d.shape), d, normals=True)
+        s, oid, nq = cast_rays(self.surf, np.broadcast_to(o[:, None], d.shape), d, normals=True, precise=False)
         hit = np.isfinite(s) & (oid > 0)
         if not hit.any():
             return out
