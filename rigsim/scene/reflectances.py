@@ -5,11 +5,10 @@
   to 360–830 nm (:func:`reflectance_colorchecker_Ohta`);
 * black 4 %, white 90 % (a matte white paint/board; a Spectralon-type standard would be ~99 %)
   — stated values, not measurements (:data:`BLACK_REFLECTANCE`, :data:`WHITE_REFLECTANCE`);
-* bottom: generic sand (``data/targets/sand_generic_assumed.csv`` — an assumption, see its
-  header; :func:`reflectance_sand_assumed`);
 * sea-bottom types measured by Maritorena, Morel & Gentili (1994): coral sand, green, brown and red
   (coralline) algae, 350–800 nm, held to 830 nm (``data/targets/benthic_maritorena_1994.csv``;
-  :func:`reflectance_benthic_Maritorena1994`) — the seabed's sand and the rocks' covers;
+  :func:`reflectance_benthic_Maritorena1994`) — the coral sand of the ``bottom`` plane and the
+  seabed, the rocks' covers;
 * a user's CSV ``wavelength_nm, reflectance`` (:func:`reflectance_from_csv`).
 """
 
@@ -24,7 +23,7 @@ from rigsim.data import load_table, read_csv_table
 from rigsim.errors import ConfigError, DataError
 
 __all__ = ["REFLECTANCE_WAVELENGTHS_NM", "BLACK_REFLECTANCE", "WHITE_REFLECTANCE", "MESH_DEFAULT_REFLECTANCE",
-           "reflectance_colorchecker_Ohta", "reflectance_sand_assumed", "reflectance_benthic_Maritorena1994",
+           "reflectance_colorchecker_Ohta", "reflectance_benthic_Maritorena1994",
            "reflectance_from_csv"]
 
 #: Wavelengths at which target reflectances are tabulated (nm): 360–830, 5 nm.
@@ -55,12 +54,6 @@ def reflectance_colorchecker_Ohta(wavelength_nm=REFLECTANCE_WAVELENGTHS_NM) -> d
 
     sds = colour.SDS_COLOURCHECKERS["ColorChecker N Ohta"]
     return {n: _hold(sd.wavelengths, sd.values, wavelength_nm) for n, sd in sds.items()}
-
-
-def reflectance_sand_assumed(wavelength_nm=REFLECTANCE_WAVELENGTHS_NM) -> np.ndarray:
-    """Generic sand bottom reflectance (assumed, see data/targets/sand_generic_assumed.csv)."""
-    t = load_table("targets/sand_generic_assumed.csv")
-    return _hold(t["wavelength_nm"], t["reflectance"], wavelength_nm)
 
 
 def reflectance_benthic_Maritorena1994(wavelength_nm=REFLECTANCE_WAVELENGTHS_NM) -> dict[str, np.ndarray]:

@@ -43,7 +43,6 @@ from rigsim.scene.reflectances import (
     WHITE_REFLECTANCE,
     reflectance_benthic_Maritorena1994,
     reflectance_colorchecker_Ohta,
-    reflectance_sand_assumed,
 )
 from rigsim.scene.types import Camera, Target
 
@@ -221,7 +220,7 @@ def target_surfaces(target: Target, camera: Camera) -> tuple[Surface, ...]:
         bv = np.cross(world_up, bu)  # (bu, bv, up) right-handed
         c = pupil - target.distance_m * world_up
         return (_flat_piece("bottom", "rectangle", c, bu, bv, world_up, size, size,
-                            _target_reflectance(target, reflectance_sand_assumed()), 1),)
+                            _target_reflectance(target, reflectance_benthic_Maritorena1994()["coral_sand"]), 1),)
     if kind == "seabed":
         from rigsim.scene.seabed import AHEAD_FRACTION, SIDE_SHIFT, SeabedSpec, seabed_mesh_file, skirt_path
 

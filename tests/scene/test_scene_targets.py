@@ -5,7 +5,7 @@ import pytest
 
 from rigsim.scene.build import build_scene
 from rigsim.scene.layout import target_layout
-from rigsim.scene.reflectances import REFLECTANCE_WAVELENGTHS_NM, reflectance_sand_assumed, reflectance_colorchecker_Ohta
+from rigsim.scene.reflectances import REFLECTANCE_WAVELENGTHS_NM, reflectance_benthic_Maritorena1994, reflectance_colorchecker_Ohta
 from rigsim.scene.surfaces import COLORCHECKER_HEIGHT_M, COLORCHECKER_WIDTH_M, target_surfaces
 from rigsim.scene.optics import pixel_rays, project_points
 from rigsim.scene.types import Camera, Port, Rig
@@ -28,9 +28,14 @@ def test_colorchecker_reflectances():
     assert white[-1] == white[REFLECTANCE_WAVELENGTHS_NM.tolist().index(780.0)]
 
 
-def test_sand_is_plausible():
-    s = reflectance_sand_assumed()
-    assert np.all(np.diff(s) >= 0) and 0.1 < s.min() and s.max() < 0.6
+def test_the_bottom_is_the_measured_coral_sand(rig):
+    """The ``bottom`` plane wears Maritorena et al.'s (1994) coral sand (data/targets/benthic_maritorena_1994.csv:
+    0.281 at 400 nm, 0.394 at 500 nm, as their table), unless the target gives its own."""
+    sc = build_scene(rig, None, "bottom", 1.0)
+    (bottom,) = target_surfaces(sc.targets[0], sc.camera)
+    wl = np.asarray(bottom.wavelength_nm)
+    np.testing.assert_allclose(bottom.reflectance, reflectance_benthic_Maritorena1994(wl)["coral_sand"])
+    assert np.interp([400.0, 500.0], wl, bottom.reflectance) == pytest.approx([0.281, 0.394], abs=1e-9)
 
 
 def test_colorchecker_geometry(rig):
