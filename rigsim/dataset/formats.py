@@ -21,7 +21,8 @@ Conventions (also in the dataset's ``README.md``, :func:`dataset_card`):
 * **Instances**: one id per target (1, 2, … in scene order; 0 water), whatever its parts (a chart's
   24 patches are one instance); the seabed/bottom has its id in the mask but no COCO or YOLO
   annotation (it is "stuff", not an object); marine-snow specks are instances of the category
-  ``marine-snow`` (their own mask, ``specks.png``), annotated when visible.
+  ``marine-snow`` (their own mask, ``specks.png``), annotated when visible — or one crowd region per
+  image, or not at all (``[dataset] snow_labels``, :data:`SNOW_LABELS`).
 """
 
 from __future__ import annotations
@@ -244,16 +245,24 @@ def instances(object_id: np.ndarray, legend: dict[str, str], targets) -> tuple[n
     return inst, out
 
 
+#: How marine-snow specks are labelled in COCO and YOLO (``[dataset] snow_labels``): each visible speck an
+#: instance; all of an image's visible specks one ``iscrowd = 1`` region (COCO's convention for many small
+#: objects: evaluation ignores detections there; YOLO has no crowd, so no lines); or not at all (their
+#: masks stay in specks.png either way).
+SNOW_LABELS = ("instances", "crowd", "none")
+
+
 def coco_annotations(inst: np.ndarray, instances_: list[dict], categories: list[dict], image_id: int,
-                     specks: np.ndarray | None = None, *, first_id: int = 1) -> list[dict]:
-    """COCO annotations of one image: every visible object instance (and visible marine-snow speck) as
-    RLE segmentation (pycocotools), bbox ``[x, y, w, h]`` (px, from the mask), area (px)."""
+                     specks: np.ndarray | None = None, *, first_id: int = 1, snow: str = "instances") -> list[dict]:
+    """COCO annotations of one image: every visible object instance (and the visible marine-snow specks
+    as ``snow`` says: :data:`SNOW_LABELS`) as RLE segmentation (pycocotools), bbox ``[x, y, w, h]`` (px,
+    from the mask), area (px)."""
     from pycocotools import mask as mask_util
 
     cat_id = {c["name"]: c["id"] for c in categories}
     anns = []
 
-    def add(m: np.ndarray, cat: int, extra: dict):
+    def add(m: np.ndarray, cat: int, extra: dict, crowd: int = 0):
         rle = mask_util.encode(np.asfortranarray(m.astype(np.uint8)))
         area = float(mask_util.area(rle))
         if area <= 0:
@@ -261,26 +270,32 @@ def coco_annotations(inst: np.ndarray, instances_: list[dict], categories: list[
         x, y, w, h = (float(v) for v in mask_util.toBbox(rle))
         rle["counts"] = rle["counts"].decode("ascii")
         anns.append({"id": first_id + len(anns), "image_id": int(image_id), "category_id": int(cat),
-                     "segmentation": rle, "area": area, "bbox": [x, y, w, h], "iscrowd": 0, **extra})
+                     "segmentation": rle, "area": area, "bbox": [x, y, w, h], "iscrowd": crowd, **extra})
 
     for it in instances_:
         if it["stuff"] or it["category"] not in cat_id:
             continue
         add(inst == it["id"], cat_id[it["category"]], {"instance_id": it["id"]})
-    if specks is not None and SNOW_CATEGORY in cat_id:
+    if snow not in SNOW_LABELS:
+        raise ValueError(f"snow labels {snow!r}: one of {', '.join(SNOW_LABELS)}")
+    if specks is not None and SNOW_CATEGORY in cat_id and snow != "none":
         sp = np.asarray(specks)
-        ids = np.unique(sp[sp > 0])
-        for pid in ids:
-            add(sp == pid, cat_id[SNOW_CATEGORY], {"particle_index": int(pid)})
+        if snow == "crowd":
+            add(sp > 0, cat_id[SNOW_CATEGORY], {}, crowd=1)
+        else:
+            for pid in np.unique(sp[sp > 0]):
+                add(sp == pid, cat_id[SNOW_CATEGORY], {"particle_index": int(pid)})
     return anns
 
 
 def yolo_lines(annotations: list[dict], categories: list[dict], width: int, height: int) -> str:
     """YOLO detection labels: one line ``class cx cy w h`` per annotation (class = COCO id − 1, the
-    rest normalised by the image size)."""
+    rest normalised by the image size); crowd regions have none (YOLO has no such notion)."""
     index = {c["id"]: i for i, c in enumerate(categories)}
     lines = []
     for a in annotations:
+        if a.get("iscrowd"):
+            continue
         x, y, w, h = a["bbox"]
         lines.append(f"{index[a['category_id']]} {(x + w / 2) / width:.6f} {(y + h / 2) / height:.6f} "
                      f"{w / width:.6f} {h / height:.6f}")
@@ -305,6 +320,12 @@ class UnderwaterDataset(torch.utils.data.Dataset):
         boxes = [a["bbox"] for a in json.load(open(f"{self.root}/{r.annotations}"))["annotations"]]
         return image, depth, instances, torch.tensor(boxes).reshape(-1, 4)              # COCO x, y, w, h
 '''
+
+
+def _snow_text(mode: str) -> str:
+    return {"instances": "`marine-snow` instances when visible",
+            "crowd": "one `marine-snow` region per image with `iscrowd = 1` (no YOLO lines)",
+            "none": "not annotated"}.get(mode, mode)
 
 
 def dataset_card(info: dict, n_samples: int) -> str:
@@ -341,8 +362,8 @@ def dataset_card(info: dict, n_samples: int) -> str:
 - Camera frame: OpenCV (x right, y down, z forward); `T_world_from_camera` in `camera.json`.  A dome
   port is an exact pinhole; a flat port's refraction is fitted with radial distortion (`max_error_px`
   says how well).
-- The seabed/bottom is in `instances.png` but not in COCO/YOLO; marine-snow specks are `marine-snow`
-  instances when visible.
+- The seabed/bottom is in `instances.png` but not in COCO/YOLO; marine-snow specks (their masks in
+  `specks.png`) are {_snow_text(spec.get('snow_labels', 'instances'))}.
 
 ## PyTorch
 

@@ -388,7 +388,7 @@ def compute_sample(args: tuple[DatasetSpec, int, int, dict | None]) -> dict:
     rng_m, z_m = depth_maps(rng_m, scene.camera)
     inst, inst_list = instances(si.layers["object_id"], legend, scene.targets)
     cats = spec_categories(spec)
-    anns = coco_annotations(inst, inst_list, cats, index, extra.get("specks"))
+    anns = coco_annotations(inst, inst_list, cats, index, extra.get("specks"), snow=spec.snow_labels)
     camera = {**intrinsics(scene.camera, spec.width, spec.height), **pose(scene.camera)}
     rec.update({
         "engine": spec.engine, "instances": inst_list,

@@ -9,6 +9,8 @@
     spp = 64                                      # Monte Carlo paths per pixel (engine "mitsuba")
     engine = "mitsuba"                            # or "fast": the fast engine (photograph-sized samples
                                                   # in seconds; rigsim.preview), Monte Carlo noise-free
+    snow_labels = "instances"                     # marine-snow specks in COCO/YOLO: each an instance, "crowd"
+                                                  # (one iscrowd region per image, no YOLO lines) or "none"
     wavelengths = "400:700:10"
 
     [water]
@@ -112,6 +114,7 @@ class DatasetSpec:
     bottom_probability: float
     bottom_altitude_m: tuple[float, float]
     engine: str = "mitsuba"
+    snow_labels: str = "instances"  # marine-snow specks in COCO/YOLO (rigsim.dataset.formats.SNOW_LABELS)
     seabed: dict | None = None  # the [seabed] table's ranges (None: no seabed scenes)
     daylight: dict | None = None  # the [daylight] table's ranges (None: strobes only)
 
@@ -167,6 +170,7 @@ class DatasetTable(FileModel):
     height: Annotated[Int, Field(ge=8, le=4096)] = 96
     spp: Annotated[Int, Field(ge=1, le=1 << 16)] = 64
     engine: Literal["mitsuba", "fast"] = "mitsuba"
+    snow_labels: Literal["instances", "crowd", "none"] = "instances"
     wavelengths: WavelengthGrid = tuple(float(x) for x in parse_wavelength_range("400:700:10"))
 
 
@@ -365,5 +369,6 @@ def load_dataset_spec(path: str | Path) -> DatasetSpec:
         sensors=sn.names, noise=sn.noise, distance_m=dist, objects=(int(sc.objects[0]), int(sc.objects[1])),
         kinds=sc.kinds, meshes=tuple(meshes), size_fraction=sc.size_fraction, reflectances=sc.reflectances,
         bottom_probability=sc.bottom_probability, bottom_altitude_m=sc.bottom_altitude_m, engine=ds.engine,
+        snow_labels=ds.snow_labels,
         seabed=sb.model_dump() if sb.probability > 0 else None,
         daylight=f.daylight.model_dump() if f.daylight.probability > 0 else None)

@@ -138,6 +138,7 @@ def test_deterministic_across_workers(tmp_path):
     ('presets = ["coastal", "jerlov-II"]', 'presets = ["coastl"]', r"water.presets\[0\].*did you mean 'coastal'"),
     ('kinds = ["colorchecker", "white-disk", "mesh"]', 'kinds = ["cube"]', r"scene.kinds\[0\]: unknown object kind"),
     ("spp = 16", "spp = 16\nfoo = 1", r"dataset.foo: unknown key"),
+    ("spp = 16", 'spp = 16\nsnow_labels = "boxes"', r"dataset.snow_labels: unknown snow labels .boxes. \(allowed: crowd, instances, none\)"),
     ("[water]", '[water]\nparticle_levels = ["snowstorm"]\nparticle_probability = 0.5',
      r"water.particle_levels\[0\]: unknown particle level"),
 ])

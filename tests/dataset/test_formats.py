@@ -226,3 +226,34 @@ def test_raw_dng_opens_with_rawpy(dataset):
     out, _ = dataset
     with rawpy.imread(str(out / "samples" / "000002" / "raw.dng")) as raw:
         assert raw.raw_image_visible.shape == (64, 96)
+
+
+def test_marine_snow_labels_as_instances_as_one_crowd_region_or_not_at_all():
+    """``snow_labels``: "instances" gives one COCO annotation per visible speck; "crowd" one region with
+    ``iscrowd = 1`` whose mask is every visible speck (pycocotools reads it back) and no YOLO line for it;
+    "none" no speck annotation; the objects' annotations are the same in all three."""
+    from pycocotools.coco import COCO
+
+    from rigsim.dataset.formats import categories_for, coco_annotations, yolo_lines
+
+    inst = np.zeros((40, 60), np.uint16)
+    inst[5:15, 10:30] = 1
+    specks = np.zeros((40, 60), np.uint32)
+    for k, (r, c) in enumerate([(20, 5), (30, 40), (35, 55), (2, 50)], start=7):
+        specks[r:r + 2, c:c + 3] = k
+    objs = [{"id": 1, "kind": "white-disk", "category": "white-disk", "stuff": False}]
+    cats = categories_for(["white-disk"], [])
+    by = {m: coco_annotations(inst, objs, cats, 3, specks, snow=m) for m in ("instances", "crowd", "none")}
+    snow_id = next(c["id"] for c in cats if c["name"] == "marine-snow")
+    assert [a["particle_index"] for a in by["instances"] if a["category_id"] == snow_id] == [7, 8, 9, 10]
+    crowd = [a for a in by["crowd"] if a["category_id"] == snow_id]
+    assert len(crowd) == 1 and crowd[0]["iscrowd"] == 1 and crowd[0]["area"] == (specks > 0).sum()
+    assert not [a for a in by["none"] if a["category_id"] == snow_id]
+    for m in by:
+        assert [a for a in by[m] if "instance_id" in a] == [a for a in by["none"] if "instance_id" in a]
+    coco = COCO()
+    coco.dataset = {"images": [{"id": 3, "width": 60, "height": 40}], "categories": cats, "annotations": by["crowd"]}
+    coco.createIndex()
+    np.testing.assert_array_equal(coco.annToMask(crowd[0]).astype(bool), specks > 0)
+    assert len(yolo_lines(by["crowd"], cats, 60, 40).splitlines()) == 1  # the disk only
+    assert len(yolo_lines(by["instances"], cats, 60, 40).splitlines()) == 5
