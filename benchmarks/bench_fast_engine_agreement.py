@@ -4,7 +4,8 @@ The whole error table of issue 18: for every water (the original write-up's six 
 Jerlov's types by default), distance, shipped strobe rig and target (ColorChecker, black disk) — and
 for daylight at 5 and 15 m (the ``ambient-only`` rig) — the fast engine's region means (each chart
 patch, the disk, the open-water veil; blue / green / red bands) against the mean of ``--seeds``
-independent Monte Carlo renders, with that reference's standard error.  It runs as a study (the
+independent Monte Carlo renders — more, up to ``--max-seeds``, where those leave the reference too
+noisy (a two-stage reference: :class:`rigsim.study.spec.CheckSettings`) — with its standard error.  It runs as a study (the
 same machinery, :mod:`rigsim.metrics.agreement`, that checks every fast-engine study: every case
 checked), so it is parallel on dask, shows progress and resumes: run it again with the same
 ``--out`` after an interruption.
@@ -64,6 +65,8 @@ width = {width}
 height = {height}
 spp = {spp}
 seeds = {seeds}
+max_seeds = {max_seeds}
+target_se = {target_se}
 """
 
 
@@ -81,7 +84,11 @@ def main(argv=None) -> int:
     ap.add_argument("--depths", default="5,15", help="daylight cases (the ambient-only rig); '' for none")
     ap.add_argument("--size", default="96x64", help="image size of both engines (px)")
     ap.add_argument("--spp", type=int, default=64, help="paths per pixel of each Monte Carlo render")
-    ap.add_argument("--seeds", type=int, default=4, help="independent Monte Carlo renders per case")
+    ap.add_argument("--seeds", type=int, default=4, help="independent Monte Carlo renders per case (the pilot)")
+    ap.add_argument("--max-seeds", type=int, default=16,
+                    help="two stages: as many more renders as bring the pilot's regions' relative SE (90th "
+                         "percentile) to --target-se, up to this many in all (= --seeds: one stage)")
+    ap.add_argument("--target-se", type=float, default=0.015, help="the reference's relative SE aimed at")
     ap.add_argument("--out", type=Path, default=ROOT / "out" / "bench-fast-engine-agreement")
     ap.add_argument("--serial", action="store_true")
     ap.add_argument("--multiple-scattering", choices=("off", "on", "auto"), default="auto",
@@ -110,6 +117,7 @@ def main(argv=None) -> int:
         f = args.out / f"{name}.toml"
         f.write_text(STUDY.format(name=name, rigs=rig_files, waters=waters, distances=distances, depth=depth,
                                   width=w, height=h, spp=args.spp, seeds=args.seeds,
+                                  max_seeds=max(args.seeds, args.max_seeds), target_se=args.target_se,
                                   ms=args.multiple_scattering).replace("'", '"'))
         spec = load_study(f)
         out = run_study(spec, args.out / name, serial=args.serial)
@@ -117,14 +125,15 @@ def main(argv=None) -> int:
             rows.append({**r, "lighting": name})
     print(f"\n{len(rows)} cells from {len({(r['lighting'], r['rig'], r['water'], r['target'], r['distance_m']) for r in rows})} "
           f"checked cases in {time.perf_counter() - t0:.0f} s; Monte Carlo: {args.seeds} x {args.spp} paths per pixel at "
-          f"{w}x{h}\n")
+          f"{w}x{h} (up to {max(args.seeds, args.max_seeds)} renders where the first {args.seeds} leave a relative SE "
+          f"above {args.target_se:.1%} in a tenth of the regions)\n")
     print_table(rows)
     if args.publish:
         from rigsim.metrics.agreement import write_published
 
         depths = ", ".join(f"{float(d):g}" for d in _list(args.depths))
         ms = "" if args.multiple_scattering == "off" else f", multiple scattering {args.multiple_scattering}"
-        settings = f"{w}x{h} px{ms}, Monte Carlo {args.seeds} x {args.spp} spp, " + "; ".join(
+        settings = f"{w}x{h} px{ms}, Monte Carlo {args.seeds}-{max(args.seeds, args.max_seeds)} x {args.spp} spp, " + "; ".join(
             x for x in (f"rigs {', '.join(rigs)}" if rigs else "",
                         f"daylight: ambient-only at {depths} m, sun at 30 deg" if depths else "") if x)
         write_published(rows, PUBLISHED, settings=settings)
@@ -172,7 +181,12 @@ def print_table(rows: list[dict]) -> None:
         print(f"\nreference noise (SE of the Monte Carlo mean, radiance cells): median {se[len(se) // 2]:.1%}, "
               f"90th percentile {se[int(0.9 * (len(se) - 1))]:.1%}")
     n_bad = sum(r["verdict"] == "disagrees" for r in rows)
-    print(f"cells beyond tolerance + t·SE (95 %, {rows[0].get('seeds')} seeds): {n_bad} of {len(rows)}")
+    per_case = {(r["lighting"], r["rig"], r["water"], r["target"], r["distance_m"]): int(r["seeds"]) for r in rows}
+    by_water = defaultdict(list)
+    for k, n in per_case.items():
+        by_water[k[2]].append(n)
+    print("Monte Carlo renders per case: " + ", ".join(f"{w} {min(v)}-{max(v)}" for w, v in by_water.items()))
+    print(f"cells beyond tolerance + t·SE (95 %, Student's t for each case's renders): {n_bad} of {len(rows)}")
 
 
 if __name__ == "__main__":

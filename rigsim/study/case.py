@@ -144,7 +144,9 @@ def _dng_bytes(cap) -> bytes:
 
 def compute_check(spec: StudySpec, case: Case) -> dict:
     """The Monte Carlo check of one case: the fast engine and ``spec.check.seeds`` independent
-    Monte Carlo renders at the check size, compared region by region (:mod:`rigsim.metrics.agreement`).
+    Monte Carlo renders at the check size (more, up to ``max_seeds``, where the first ones are too
+    noisy: :class:`~rigsim.study.spec.CheckSettings`), compared region by region
+    (:mod:`rigsim.metrics.agreement`).
 
     Returns ``{"record": {...}, "files": {"fast.png": ..., "monte-carlo.png": ...}}``.
     """
@@ -162,19 +164,30 @@ def compute_check(spec: StudySpec, case: Case) -> dict:
     fast = render_preview(scene, width=ck.width, height=ck.height, wavelengths_nm=wl, layers=layers,
                           multiple=spec.render.preview_multiple, seed=seed)
     t_fast = time.perf_counter() - t0
-    refs = []
     t0 = time.perf_counter()
-    for i in range(ck.seeds):
-        refs.append(render(scene, width=ck.width, height=ck.height, spp=ck.spp, seed=(seed + 7919 * i) % 2**32,
-                           integrator=ck.integrator, wavelengths_nm=wl,
-                           layers=("object_id", "backscatter") + tuple(k for k in layers if k.startswith("particle"))))
-    t_mc = time.perf_counter() - t0
+
+    def mc(i):
+        return render(scene, width=ck.width, height=ck.height, spp=ck.spp, seed=(seed + 7919 * i) % 2**32,
+                      integrator=ck.integrator, wavelengths_nm=wl,
+                      layers=("object_id", "backscatter") + tuple(k for k in layers if k.startswith("particle")))
+
+    refs = [mc(i) for i in range(ck.seeds)]
     regions, metrics = compare_renders(fast, refs, target_kind)
+    pilot = None
+    if (ck.max_seeds or ck.seeds) > ck.seeds:  # two stages (CheckSettings): the pilot's noise sets the count
+        se = np.array([r.deviation_se for r in regions], float)
+        se = se[np.isfinite(se)]
+        pilot = {"seeds": ck.seeds, "se_p90": float(np.percentile(se, 90)) if se.size else float("nan")}
+        n = ck.renders_for(pilot["se_p90"])
+        if n > len(refs):
+            refs += [mc(i) for i in range(len(refs), n)]
+            regions, metrics = compare_renders(fast, refs, target_kind)
+    t_mc = time.perf_counter() - t0
     record = {"case_id": spec.case_id(case), "case": case.key(), "rig": case.rig_name, "water": case.water_name,
               "target": target_kind if target_kind != "mesh" else case.target, "distance_m": case.distance_m,
               "c_550_per_m": float(water.c_per_m(550.0)), "b_550_per_m": float(water.b_per_m(550.0)),
               "tolerance": tolerance_for(case.water_name), "width": ck.width, "height": ck.height,
-              "spp": ck.spp, "seeds": ck.seeds, "integrator": ck.integrator,
+              "spp": ck.spp, "seeds": len(refs), "pilot": pilot, "integrator": ck.integrator,
               "fast_wall_time_s": t_fast, "monte_carlo_wall_time_s": t_mc,
               "regions": [r.record() for r in regions], "metrics": [m.record() for m in metrics]}
     from rigsim.spectral_image import srgb_preview

@@ -35,6 +35,8 @@
     height = 64
     spp = 256               # paths per pixel of each of `seeds` independent renders
     seeds = 4               # the reference is their mean; its standard error is their spread / sqrt(seeds)
+    max_seeds = 16          # optional: two stages — from the first `seeds` renders' noise, as many more as bring
+    target_se = 0.015       # the regions' relative standard error (90th percentile) to target_se, up to max_seeds
 
     [sweep]
     extend_visibility = true  # default: where a target stays visible over the whole sweep, the study
@@ -61,6 +63,7 @@ from __future__ import annotations
 
 import hashlib
 import json
+import math
 import numbers
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
@@ -108,13 +111,28 @@ class RenderSettings:
 @dataclass(frozen=True)
 class CheckSettings:
     """The Monte Carlo checks of a fast-engine study: image size (px), paths per pixel of each of
-    ``seeds`` independent renders (the reference is their mean, its standard error their spread)."""
+    ``seeds`` independent renders (the reference is their mean, its standard error their spread).
+
+    ``max_seeds`` > ``seeds``: a two-stage reference (Stein 1945) — the first ``seeds`` renders are a
+    pilot; from the 90th percentile ``s`` of its regions' relative standard errors the case gets
+    ``ceil(seeds · (s / target_se)²)`` renders in all (at most ``max_seeds``), decided once, before any
+    of the rest is seen, and never from the fast engine's numbers: turbid water, where a few renders
+    leave a reference too noisy to judge anything, gets more of them; clear water keeps the pilot."""
 
     width: int = 96
     height: int = 64
     spp: int = 256
     seeds: int = 4
     integrator: str = "rigsim"
+    max_seeds: int | None = None
+    target_se: float = 0.015
+
+    def renders_for(self, pilot_se_p90: float) -> int:
+        """Renders in all for a pilot whose regions' relative SE has the 90th percentile ``pilot_se_p90``."""
+        top = max(self.seeds, self.max_seeds or self.seeds)
+        if not math.isfinite(pilot_se_p90) or top == self.seeds:
+            return top
+        return int(min(top, max(self.seeds, math.ceil(self.seeds * (pilot_se_p90 / self.target_se) ** 2))))
 
 
 @dataclass(frozen=True)
@@ -355,12 +373,21 @@ class CheckTable(FileModel):
     height: _ImageSide = 64
     spp: _Spp = 256
     seeds: Annotated[Int, Field(ge=2, le=64)] = 4
+    max_seeds: Annotated[Int, Field(ge=2, le=256)] | None = None
+    target_se: Annotated[Real, Field(gt=0.0, le=1.0)] = 0.015
     integrator: _Integrator = "rigsim"
+
+    @model_validator(mode="after")
+    def _two_stages(self) -> "CheckTable":
+        if self.max_seeds is not None and self.max_seeds < self.seeds:
+            raise invalid(f"max_seeds {self.max_seeds} is below seeds {self.seeds}", field="max_seeds",
+                          allowed=f">= seeds ({self.seeds})")
+        return self
 
     def settings(self) -> CheckSettings:
         """The :class:`CheckSettings`."""
         return CheckSettings(width=self.width, height=self.height, spp=self.spp, seeds=self.seeds,
-                             integrator=self.integrator)
+                             integrator=self.integrator, max_seeds=self.max_seeds, target_se=self.target_se)
 
 
 class CaptureTable(FileModel):

@@ -78,6 +78,26 @@ def test_check_with_mitsuba_needs_the_fast_engine(tmp_path):
         load_study(q)
 
 
+def test_two_stage_checks_take_more_renders_only_where_the_first_are_too_noisy(tmp_path):
+    """[check] max_seeds: the pilot's regions' relative SE (90th percentile) s sets the renders in all,
+    ceil(seeds (s / target_se)^2) between seeds and max_seeds; the record says how many and the pilot's s.
+    A reference that is noisy at 4 paths per pixel gets all 5; asked for 100 % it keeps the pilot's 2."""
+    from rigsim.study.case import compute_check
+    from rigsim.study.spec import CheckSettings
+
+    ck = CheckSettings(seeds=4, max_seeds=16, target_se=0.015)
+    assert [ck.renders_for(s) for s in (0.005, 0.015, 0.02, 0.03, 0.2, float("nan"))] == [4, 4, 8, 16, 16, 16]
+    assert CheckSettings(seeds=4).renders_for(0.5) == 4  # (no max_seeds: one stage)
+    with pytest.raises(ConfigError, match=r"check.max_seeds: max_seeds 2 is below seeds 4"):
+        load_study(fast_study(tmp_path, extra="\n[check]\nseeds = 4\nmax_seeds = 2\n"))
+    for target, want in ((1e-4, 5), (1.0, 2)):
+        spec = load_study(fast_study(tmp_path, waters='["coastal"]', distances="[1.5]", render_extra="check_with_mitsuba = 1",
+                                     extra=f"\n[check]\nwidth = 24\nheight = 16\nspp = 4\nseeds = 2\nmax_seeds = 5\n"
+                                           f"target_se = {target}\n"))
+        rec = compute_check(spec, spec.check_cases()[0])["record"]
+        assert rec["seeds"] == want and rec["pilot"]["seeds"] == 2 and rec["pilot"]["se_p90"] > 0
+
+
 def _rows(path: Path) -> list[dict]:
     with path.open() as fh:
         return list(csv.DictReader(fh))
