@@ -443,16 +443,21 @@ def trust_section(d: Path, agreement: list[dict], spec: dict) -> list[str]:
         trs.append(f"<tr><td>{html.escape(w)}</td><td>{', '.join(f'{x:g}' for x in dists)}</td>"
                    f"<td>{rs[0]['tolerance']:.0%}</td>{''.join(cells)}</tr>")
     first = agreement[0]
+    counts = sorted({int(r["seeds"]) for r in agreement if r.get("seeds")}) or [int(first["seeds"])]
+    renders = (f"{counts[0]}" if len(counts) == 1 else
+               f"{counts[0]}–{counts[-1]} (more where the first {counts[0]} left the reference noisy)")
+    t_text = (f"{noise_multiplier(counts[0]):.2f} standard errors: Student's t for {counts[0]} renders"
+              if len(counts) == 1 else f"Student's t for each case's renders: {noise_multiplier(counts[-1]):.2f}–"
+              f"{noise_multiplier(counts[0]):.2f} standard errors")
     out = [f"<h2>How far to trust these numbers</h2>"
            f"<p>Every photograph and number above comes from the fast engine.  {len({(r['rig'], r['water'], r['target'], r['distance_m']) for r in agreement})} "
            f"cases, chosen to cover the study's waters and distances, were also rendered by the Monte Carlo renderer "
-           f"({int(first['seeds'])} independent renders of {int(first['spp'])} paths per pixel at "
+           f"({renders} independent renders of {int(first['spp'])} paths per pixel at "
            f"{int(first['width'])}×{int(first['height'])} pixels).  Each cell is the largest difference, fast / Monte "
            f"Carlo − 1, over the checked cases' regions (each chart patch, the disk, the open water away from the "
            f"target; edge pixels left out) and colour groups (blue &lt; 490 nm, green 490–580, red ≥ 580), ± the "
            f"Monte Carlo reference's standard error; green: within the tolerance, yellow: within it plus the "
-           f"reference's 95 % confidence half-width ({noise_multiplier(int(first['seeds'])):.2f} standard errors: "
-           f"Student's t for {int(first['seeds'])} renders), red: beyond.  Contrast and backscatter share are the scene metrics of the tables "
+           f"reference's 95 % confidence half-width ({t_text}), red: beyond.  Contrast and backscatter share are the scene metrics of the tables "
            f"above.  Every value is in agreement.csv.</p>"
            f"<table class='data'>{head}{''.join(trs)}</table>"]
     pics = []

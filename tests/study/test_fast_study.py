@@ -148,10 +148,11 @@ def test_a_fast_study_checks_itself_against_monte_carlo(tmp_path):
     has the trust table and the side-by-side pictures."""
     p = fast_study(tmp_path, waters='["jerlov-3C"]', distances="[1.5]", targets='["colorchecker"]',
                    sweep_extra="extend_visibility = false", render_extra="check_with_mitsuba = 1",
-                   extra="\n[check]\nwidth = 72\nheight = 48\nspp = 16\nseeds = 2\n")
+                   extra="\n[check]\nwidth = 72\nheight = 48\nspp = 16\nseeds = 2\nmax_seeds = 3\ntarget_se = 0.0001\n")
     spec = load_study(p)
     out = run_study(spec, tmp_path / "out", serial=True, progress=False)
     rows = _rows(out / "agreement.csv")
+    assert {r["seeds"] for r in rows} == {"3"}  # (two stages: no pilot reaches 0.01 % standard error)
     regions = {r["region"] for r in rows if r["quantity"] == "radiance"}
     assert "open water" in regions and sum(x.startswith("patch:") for x in regions) >= 20
     assert {r["group"] for r in rows if r["quantity"] == "radiance"} == {"blue", "green", "red"}
@@ -167,6 +168,7 @@ def test_a_fast_study_checks_itself_against_monte_carlo(tmp_path):
 
     page = write_report(out).read_text()
     assert "How far to trust these numbers" in page and "Fast engine against Monte Carlo in 1 checked" in page
+    assert "(3 independent renders of 16 paths per pixel" in page and "Student's t for 3 renders" in page
     # resumed: the check is not rendered again
     before = (check_dir / "check.json").stat().st_mtime_ns
     run_study(spec, out, serial=True, progress=False)
