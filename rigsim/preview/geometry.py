@@ -142,7 +142,7 @@ class MeshSet:
             tri[a:b] = np.where(hit, np.asarray(pi.prim_index.numpy(), np.int64), -1)
             if not precise:
                 t[a:b] = np.where(hit, tt + eps[a:b], np.inf)
-                uv = np.asarray(pi.prim_uv.numpy(), float)
+                uv = pi.prim_uv.numpy()  # (float32; undefined where nothing was hit: kept out before widening)
                 u[a:b], v[a:b] = np.where(hit, uv[0], 0.0), np.where(hit, uv[1], 0.0)
         if not precise:
             return t, tri, u, v
