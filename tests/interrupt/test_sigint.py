@@ -16,9 +16,15 @@ import pytest
 from tests.interrupt.harness import ROOT, compare, study_job
 
 
+def _as_in_a_terminal():
+    """The child's SIGINT as in a terminal (default): a test runner started in the background of a
+    non-interactive shell has SIGINT ignored, and an ignored signal stays ignored across exec."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 def _interrupt_after(cmd, out: Path, items: str, n: int, timeout=300):
     p = subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                         start_new_session=True)
+                         start_new_session=True, preexec_fn=_as_in_a_terminal)
     t0 = time.time()
     while time.time() - t0 < timeout and len(list(out.glob(items))) < n and p.poll() is None:
         time.sleep(0.05)
