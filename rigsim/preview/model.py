@@ -105,6 +105,7 @@ from rigsim.preview.backscatter import (
 )
 from rigsim.preview.forward import SmallAngle
 from rigsim.preview.geometry import SceneSurfaces, cast_rays, occluded, scene_surfaces
+from rigsim.preview.multiple import _cosine_about
 from rigsim.preview.tiles import default_threads, no_hugepage_advice, row_tiles, run, thread_map
 from rigsim.scene.daylight_field import SceneDaylight, height_factor, path_radiance, scene_daylight
 from rigsim.scene.particles import scene_particles
@@ -1173,17 +1174,6 @@ def _hash2(p: np.ndarray) -> np.ndarray:
     return np.stack(out, -1)
 
 
-def _tangent_frame(n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Two unit tangents completing each unit normal ``n`` (N, 3) to an orthonormal frame (Duff et al.
-    2017, "Building an orthonormal basis, revisited", JCGT 6(1))."""
-    sgn = np.where(n[:, 2] >= 0, 1.0, -1.0)
-    a = -1.0 / (sgn + n[:, 2])
-    b = n[:, 0] * n[:, 1] * a
-    t1 = np.stack([1.0 + sgn * n[:, 0] ** 2 * a, sgn * b, -sgn * n[:, 0]], -1)
-    t2 = np.stack([b, sgn + n[:, 1] ** 2 * a, -n[:, 1]], -1)
-    return t1, t2
-
-
 def _diffuse_irradiance(diffuse: np.ndarray, dirs: np.ndarray, dw: float, normals: np.ndarray) -> np.ndarray:
     """(U, B) irradiance of the diffuse field (B, nθ, nφ radiances over its bins, sub-sampled directions
     ``dirs`` of solid angle ``dw`` each: :meth:`DaylightField.bin_directions`) on surfaces of unit normals
@@ -1310,8 +1300,7 @@ class _Daylight:
         x2 = ((j[None, :] + jit[:, 1:]) / g) % 1.0
         r, phi = np.sqrt(x1), 2 * np.pi * x2
         local = np.stack([r * np.cos(phi), r * np.sin(phi), np.sqrt(np.clip(1.0 - x1, 0.0, None))], -1)
-        t1, t2 = _tangent_frame(nrm)
-        d = local[..., :1] * t1[:, None] + local[..., 1:2] * t2[:, None] + local[..., 2:] * nrm[:, None]
+        d = _cosine_about(np.repeat(nrm, g * g, axis=0), local.reshape(-1, 3)).reshape(local.shape)
         o = p + (1e-7 * (1.0 + np.abs(p).max(axis=1)))[:, None] * nrm
         s, oid, nq = cast_rays(self.surf, np.broadcast_to(o[:, None], d.shape), d, normals=True, precise=False)
         hit = np.isfinite(s) & (oid > 0)
