@@ -108,6 +108,34 @@ def _wait_text(page, selector: str, *needles: str, timeout_s: float = 60.0) -> s
     raise AssertionError(f"{selector} never showed {needles!r} within {timeout_s:g} s; it shows {text!r}")
 
 
+_SENT_JS = """() => { const st = window.trame && window.trame.state;
+  return !st || !st.dirtyKeys || st.dirtyKeys.size === 0; }"""
+
+
+def _save_as(page, name: str, outcome: str, server: dict) -> None:
+    """Type ``name`` into "save as", click Save and wait for the message naming it.
+
+    Typed and clicked at machine speed, the name may still be only in the page (trame defers a
+    page's state while a request is in flight, and a state message from the server then
+    overwrites it); the click carries the name anyway, but waiting until the page has sent what
+    was typed is what a person's pace gives. On a timeout the failure says what the field showed
+    and what the app logged."""
+    field = page.locator("#save-name")
+    field.fill(name)
+    assert field.input_value() == name
+    try:
+        page.wait_for_function(_SENT_JS, timeout=10_000)
+    except Exception:
+        pass  # still pending after 10 s: click anyway (the click carries the name)
+    page.locator("#save-btn").click()
+    try:
+        _wait_text(page, "#file-message", outcome, name, timeout_s=45)
+    except AssertionError as exc:
+        log = server["work"].parent / "app.log"
+        tail = log.read_text(errors="replace")[-4000:] if log.is_file() else "(no log)"
+        raise AssertionError(f"{exc}; the field shows {field.input_value()!r}; the app's log ends:\n{tail}") from None
+
+
 def _number(text: str) -> float:
     """The first number in a metric's text ('12.4 %' -> 12.4, '209 : 1  (46.4 dB)' -> 209)."""
     return float(text.split()[0])
@@ -256,13 +284,9 @@ def test_page_edit_compare_and_files(server):
         # files: refused outside the sandbox, written inside
         page.get_by_text("Rig file", exact=True).click()
         for bad in ("../../etc/x.toml", "/tmp/x.toml", "../escape.toml"):
-            page.locator("#save-name").fill(bad)
-            page.locator("#save-btn").click()
-            _wait_text(page, "#file-message", "Refused", bad)
+            _save_as(page, bad, "Refused", server)
         assert not Path("/tmp/x.toml").exists() or Path("/tmp/x.toml").stat().st_mtime < t0
-        page.locator("#save-name").fill("my-rig.toml")
-        page.locator("#save-btn").click()
-        _wait_text(page, "#file-message", "Saved", "my-rig.toml")
+        _save_as(page, "my-rig.toml", "Saved", server)
         browser.close()
     assert not errors, errors
     saved = server["work"] / "my-rig.toml"
