@@ -35,3 +35,29 @@ def test_deep_turbid_daylight_agrees_with_monte_carlo_in_the_red():
     assert len(red) == 2
     for r in red:
         assert abs(r.deviation) < 0.02 + 3 * r.deviation_se, (r.region, r.deviation, r.deviation_se)
+
+
+def test_deep_clear_daylight_band_products_and_rim_veil_agree_with_monte_carlo():
+    """Deep in clear water the field and the water's transmission fall together across a red band
+    (Jerlov I at 15 m): the band mean of their product is not the product of their band means — the
+    fast engine's black disk at 3 m was +12.8 ± 0.8 % over Monte Carlo in the red with one row per band,
+    within 0.5 % with sub-bands.  And the pixels on the disk's rim see the water beyond it with part of
+    their box: the veil of a rim pixel is the mean of its sample rays' veils (the backscatter share of
+    the target was −4.4 ± 0.3 % with the centre's veil alone)."""
+    from rigsim.metrics.agreement import compare_renders
+    from rigsim.render import render
+
+    rig = load_rig("rigs/ambient-only.toml")
+    scene = build_scene(rig, "jerlov-I", "black-disk", 3.0, size_m=0.9,
+                        daylight=daylight_from_options(15.0, sun_zenith_deg=30.0, model="kd"))
+    kw = dict(width=48, height=32, wavelengths_nm=[float(x) for x in range(550, 701, 10)], bandwidth_nm=10.0,
+              layers=("object_id", "backscatter"))
+    refs = [render(scene, spp=32, seed=3 + 7919 * i, **kw) for i in range(3)]
+    fast = render_preview(scene, **kw)
+    regions, metrics = compare_renders(fast, refs, "black-disk")
+    disk = [r for r in regions if r.region == "disk" and r.group == "red"]
+    share = [m for m in metrics if m.metric == "backscatter_share"]
+    assert len(disk) == 1 and len(share) == 1
+    for name, dev, se in (("disk red", disk[0].deviation, disk[0].deviation_se),
+                          ("backscatter share", share[0].deviation, share[0].deviation_se)):
+        assert abs(dev) < 0.02 + 3 * se, (name, dev, se)

@@ -346,7 +346,9 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
                                       sample_shape, hidx), n)
             fwd = water.small_angle.blur_image(src, range_m.astype(float), pitch)
         if has_day:
-            direct += day_lit * T
+            # seen through the daylight tables' band-mean c, as the renderer's daylight transport (a
+            # physics fix of 2026-12-03, applied here too; the sub-bands of that fix are off in the comparison)
+            direct += day_lit * np.exp(-day.c[day.band_index(wl)] * ts[..., None])
         direct = _pixel_mean(_expand(direct, sample_shape, hidx), n)
         scattered = _pixel_mean(_expand(scattered, sample_shape, hidx), n)
         tick(0.3 + 0.3 * gi, f"{gname}: direct and forward")
