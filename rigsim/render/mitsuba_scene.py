@@ -163,7 +163,59 @@ def _particles_shape(ps, *, black: bool, medium):
     return _mesh(PARTICLES_KEY, spec, mi.load_dict({"type": "diffuse", "reflectance": refl}), medium)
 
 
+#: Most recently loaded passes of the last scene kept for its next render (another seed: a study's
+#: Monte Carlo check renders each case up to 16 times, and with marine snow loading the particles'
+#: mesh took ~4 s of a 6.6 s render).
+SCENE_CACHE_SIZE = 3
+_SCENE_CACHE: list[tuple[tuple, tuple, "MitsubaScene"]] = []
+
+
+def forget_scenes() -> None:
+    """Let every kept scene go (:data:`SCENE_CACHE_SIZE`)."""
+    _SCENE_CACHE.clear()
+
+
+def forget_scenes_except(scene: Scene) -> None:
+    """Let the loaded scenes of any other scene go.  Dr.Jit compiles the ids of the loaded shapes and
+    emitters into its kernels and reuses an id only once it is freed: kept alive while another scene is
+    loaded, they made every distance of a sweep compile its kernels anew (~5 s each;
+    tests/render/test_render_api.py::test_one_compiled_kernel_serves_every_target_distance).  A render
+    calls this before it makes any Mitsuba object."""
+    if _SCENE_CACHE and _SCENE_CACHE[-1][0][0] is not scene:
+        _SCENE_CACHE.clear()
+
+
 def build_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: int = -1,
+                        rr_depth: int = 5, phase=None, integrator: str = "rigsim",
+                        ambient=None, backscatter_aov: bool = False, flat_shapes: str = "mesh",
+                        particles: bool = True) -> MitsubaScene:
+    """Load the Mitsuba scene of one render pass (or reuse the one loaded last time for the same
+    objects and options: :data:`SCENE_CACHE_SIZE`; a loaded scene is not changed by rendering it).
+
+    Parameters are those of :func:`_load_mitsuba_scene`.
+    """
+    lights = list(lights)
+    if phase is not None:  # (comparisons with a replaced phase function: not kept)
+        return _load_mitsuba_scene(scene, lights=lights, mode=mode, max_depth=max_depth, rr_depth=rr_depth,
+                                   phase=phase, integrator=integrator, ambient=ambient,
+                                   backscatter_aov=backscatter_aov, flat_shapes=flat_shapes, particles=particles)
+    refs = (scene, tuple(lights), ambient)
+    key = (id(scene), tuple(id(x) for x in lights), id(ambient), mode, max_depth, rr_depth, integrator,
+           backscatter_aov, flat_shapes, particles)
+    for i, (r, k, ms) in enumerate(_SCENE_CACHE):
+        if k == key and r[0] is scene and r[2] is ambient and all(a is b for a, b in zip(r[1], lights)):
+            _SCENE_CACHE.append(_SCENE_CACHE.pop(i))
+            return ms
+    forget_scenes_except(scene)
+    ms = _load_mitsuba_scene(scene, lights=lights, mode=mode, max_depth=max_depth, rr_depth=rr_depth,
+                             integrator=integrator, ambient=ambient, backscatter_aov=backscatter_aov,
+                             flat_shapes=flat_shapes, particles=particles)
+    _SCENE_CACHE.append((refs, key, ms))
+    del _SCENE_CACHE[:-SCENE_CACHE_SIZE]
+    return ms
+
+
+def _load_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: int = -1,
                         rr_depth: int = 5, phase=None, integrator: str = "rigsim",
                         ambient=None, backscatter_aov: bool = False, flat_shapes: str = "mesh",
                         particles: bool = True) -> MitsubaScene:

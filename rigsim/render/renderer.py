@@ -34,7 +34,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from rigsim.errors import ConfigError, RigsimError
-from rigsim.render.mitsuba_scene import MitsubaScene, build_mitsuba_scene
+from rigsim.render.mitsuba_scene import MitsubaScene, build_mitsuba_scene, forget_scenes_except
 from rigsim.render.variant import is_jit, mitsuba, variant
 from rigsim.scene.imaging import IMAGE_LAYERS, check_int, check_scene_for_bands, image_request
 from rigsim.scene.optics import camera_rays, fov_water_deg, outside_index, world_radius_m
@@ -346,6 +346,7 @@ def render(scene: Scene, *, width: int = 320, height: int = 240, spp: int = 64, 
     if not is_jit():
         raise RigsimError(f"rendering needs a vectorised Mitsuba variant (llvm_ad_spectral or cuda_ad_spectral); "
                           f"only {variant()} is available — install libLLVM (e.g. `apt install libllvm19`)")
+    forget_scenes_except(scene)  # before any Mitsuba object of this render is made (see there)
     ambient = None
     if scene.daylight is not None:
         from rigsim.render.daylight import ambient_tables

@@ -30,7 +30,7 @@ from rigsim.render.integrators import (
 )
 from rigsim.render.integrators.common import AureoleTable, PhaseAngleTable
 from rigsim.render.integrators.common import Segment as _Segment
-from rigsim.render.mitsuba_scene import build_mitsuba_scene
+from rigsim.render.mitsuba_scene import build_mitsuba_scene, forget_scenes
 from rigsim.render.renderer import band_edges, render_pass
 from rigsim.render.variant import mitsuba
 from rigsim.scene.types import BeamPattern
@@ -389,5 +389,6 @@ def test_a_rendered_scene_is_freed_with_its_lights():
     integrator = weakref.ref(ms.scene.integrator())
     assert isinstance(integrator(), RigsimVolIntegrator) and light() is not None
     del ms
+    forget_scenes()  # the loaded scene is kept for the next render of the same scene until then
     gc.collect()
     assert light() is None and integrator() is None
