@@ -68,9 +68,13 @@ its coarse grid of rays only and interpolated.
 
 Conventions are the renderer's (:func:`rigsim.render.render`): bands are averages
 over ``[centre ± width/2]`` (the direct component by ``sub_bands``-point
-Gauss–Legendre quadrature in each band; the water, blur kernels and backscatter at
-band centres), strobes go to the ``flash`` layers in J/(m² sr nm) and continuous
-light to ``radiance``, object ids and ``range_m`` from the pixel-centre ray.
+Gauss–Legendre quadrature in each band; the daylight on as many equal sub-bands as the
+field's and the water's fall across the band need, :func:`daylight_sub_bands`; the water, blur
+kernels and backscatter at band centres), strobes go to the ``flash`` layers in J/(m² sr nm) and
+continuous light to ``radiance``, object ids and ``range_m`` from the pixel-centre ray.  Pixels are
+box-filtered as the renderer's: a pixel on an edge (:func:`_edge_pixels`) is the mean of
+``edge_samples²`` rays jittered in their cells, for the surfaces' light and for the veil along each
+(a ray past a target's rim sees the water to its end).
 
 References
 ----------
