@@ -235,8 +235,17 @@ class StudySpec:
         return f"{safe(case.rig_name)}__{safe(case.water_name)}__{safe(case.target)}__{case.distance_m:g}m__{h}"
 
     def case_seed(self, case: Case) -> int:
-        """Seed of a case: derived from the study seed and the case's inputs (order-independent)."""
-        h = hashlib.sha1(json.dumps({"seed": self.seed, "case": case.key()}, sort_keys=True).encode())
+        """Seed of a case: derived from the study seed and the case's inputs (order-independent), the
+        files among them (rig, water, mesh) by their contents, not where they are: the same study in
+        another checkout draws the same random numbers (with absolute paths it did not, and the demo's
+        Monte Carlo checks and multiply scattered light came out differently in every clone)."""
+        key = case.key()
+        for name, value in key.items():
+            if isinstance(value, str) and value.endswith((".toml", ".obj", ".ply", ".gltf", ".glb")):
+                f = Path(value)
+                if f.is_file():
+                    key[name] = hashlib.sha1(f.read_bytes()).hexdigest()
+        h = hashlib.sha1(json.dumps({"seed": self.seed, "case": key}, sort_keys=True).encode())
         return int(h.hexdigest()[:8], 16)
 
 
