@@ -102,19 +102,22 @@ def water_medium_dict(water, *, albedo_zero: bool = False, phase=None) -> dict:
 def _mesh(key: str, spec: dict, bsdf, medium):
     """A ``mi.Mesh`` from a :data:`~rigsim.render.targets.MESH_TYPE` spec, with its BSDF and
     (if not None) exterior medium; the vertices live in memory, not in the kernels."""
-    V = np.asarray(spec["vertex_positions"], np.float32)
-    F = np.asarray(spec["faces"], np.uint32)
+    def flat(a, kind, dt):  # numpy (n, 3), or already a flat Dr.Jit array (shared between loads)
+        return a if isinstance(a, kind) else kind(np.asarray(a, dt).ravel())
+
+    V = flat(spec["vertex_positions"], mi.Float, np.float32)
+    F = flat(spec["faces"], mi.UInt32, np.uint32)
     N = spec.get("vertex_normals")  # optional (meshes from files): smooth shading normals
     props = mi.Properties()
     props["bsdf"] = bsdf
     if medium is not None:
         props["exterior"] = medium
-    mesh = mi.Mesh(key, len(V), len(F), props=props, has_vertex_normals=N is not None)
+    mesh = mi.Mesh(key, dr.width(V) // 3, dr.width(F) // 3, props=props, has_vertex_normals=N is not None)
     params = mi.traverse(mesh)
-    params["vertex_positions"] = mi.Float(V.ravel())
-    params["faces"] = mi.UInt32(F.ravel())
+    params["vertex_positions"] = V
+    params["faces"] = F
     if N is not None:
-        params["vertex_normals"] = mi.Float(np.asarray(N, np.float32).ravel())
+        params["vertex_normals"] = flat(N, mi.Float, np.float32)
     params.update()
     return mesh
 
@@ -153,18 +156,8 @@ def _particles_shape(ps, *, black: bool, medium):
         refl = spectrum_dict(np.asarray(f.reflectance_wavelength_nm), np.asarray(f.reflectance), name="particles")
     else:
         refl = {"type": "uniform", "value": float(f.albedo)}
-    n_v, n_f, pos, faces, normals = geo[1:]
-    props = mi.Properties()
-    props["bsdf"] = mi.load_dict({"type": "diffuse", "reflectance": refl})
-    if medium is not None:
-        props["exterior"] = medium
-    mesh = mi.Mesh(PARTICLES_KEY, n_v, n_f, props=props, has_vertex_normals=True)
-    params = mi.traverse(mesh)
-    params["vertex_positions"] = pos
-    params["faces"] = faces
-    params["vertex_normals"] = normals
-    params.update()
-    return mesh
+    spec = {"vertex_positions": geo[1], "faces": geo[2], "vertex_normals": geo[3]}
+    return _mesh(PARTICLES_KEY, spec, mi.load_dict({"type": "diffuse", "reflectance": refl}), medium)
 
 
 #: The particles' mesh arrays of the last particle set (the full pass and the black one of a render,
@@ -173,7 +166,7 @@ _PARTICLE_GEOMETRY: list = []
 
 
 def _particle_geometry(ps) -> tuple:
-    """(ps, vertex count, face count, Dr.Jit positions, faces, normals) of :func:`_particles_shape`'s mesh."""
+    """(ps, Dr.Jit positions, faces, normals: flat) of :func:`_particles_shape`'s mesh."""
     if _PARTICLE_GEOMETRY:
         last = _PARTICLE_GEOMETRY[0][0]
         if last is ps or (len(last) == len(ps) and np.array_equal(last.position_m, ps.position_m)
@@ -186,8 +179,7 @@ def _particle_geometry(ps) -> tuple:
     pos = np.asarray(ps.position_m, np.float32)[:, None, :] + r[:, None, None] * V[None].astype(np.float32)
     faces = (F[None].astype(np.uint32) + (np.arange(n, dtype=np.uint32) * np.uint32(len(V)))[:, None, None])
     normals = np.broadcast_to(V[None].astype(np.float32), (n,) + V.shape)
-    geo = (ps, n * len(V), n * len(F), mi.Float(pos.ravel()), mi.UInt32(faces.ravel()),
-           mi.Float(np.ascontiguousarray(normals).ravel()))
+    geo = (ps, mi.Float(pos.ravel()), mi.UInt32(faces.ravel()), mi.Float(np.ascontiguousarray(normals).ravel()))
     _PARTICLE_GEOMETRY[:] = [geo]
     return geo
 
