@@ -377,10 +377,13 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
         same way (a check of the analytic model); ``"all"``: every path, with the exact camera leg
         (``e^{−c s}``, every scattering and surface splatted to the camera) — the whole image by
         light tracing, an independent check of the renderer and of the split (noisy: the forward
-        peak of the phase function towards the camera).
+        peak of the phase function towards the camera); ``"irradiance"``: every path's irradiance on
+        the side of each target the camera sees, exact (no δ-truncation), nothing splatted — the light
+        leg of the hybrid reference (``benchmarks/bench_reference_hybrid.py``).
     """
-    if classes not in ("B", "all", "A", "qss"):
-        raise ValueError("classes must be 'B', 'A', 'qss' or 'all'")
+    if classes not in ("B", "all", "A", "qss", "irradiance"):
+        raise ValueError("classes must be 'B', 'A', 'qss', 'all' or 'irradiance'")
+    irradiance_only = classes == "irradiance"  # every path's irradiance on the targets, nothing splatted
     every = classes == "all"
     qss = classes == "qss"  # (a check) every path, with the quasi-single-scattering camera leg
     only_a = classes == "A"  # (a check of the analytic model) its own paths, estimated the same way
@@ -501,7 +504,7 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
             # counted here: a scattering by more than ψ_c towards the camera after another significant
             # event (one alone is the analytic model's quasi-single scattering); the camera leg as the
             # analytic model's, e^{−(c − bF)s}: small-angle scattering on the way back conserved
-            ok = (s > reach) & (s < edges[-1]) & (not track)
+            ok = (s > reach) & (s < edges[-1]) & (not track) & (not irradiance_only)
             if only_a:
                 ok &= (n_sig[mv] == 0) & (cos_psi < cutoff_cos)
             elif qss:
@@ -559,6 +562,8 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
                 dep = ~dep
             nrm = n_hit[sv]
             nrm = np.where((np.sum(nrm * d[sv], axis=1) > 0)[:, None], -nrm, nrm)  # the lit side
+            if irradiance_only:  # the side the camera sees
+                dep = np.sum(nrm * (pupil - x), axis=1) > 0
             if every or qss:
                 _splat_surface(veil_s, (bid[sv], li[sv]), x, k, nrm, F[sv], refl, surf, pupil, reach, edges,
                                c if every else kappa_cam, omega, cam, width, height, cols, rows, n_out)

@@ -161,3 +161,47 @@ def test_edge_lit_turbid_water_backscatter_share_hardly_depends_on_the_seed():
                             layers=("range_m", "object_id", "backscatter"), seed=seed, multiple=True, photons=25_000)
         shares.append(scene_metrics(im, "colorchecker")[0]["backscatter_share"])
     assert max(shares) - min(shares) < 0.03, shares
+
+
+def test_irradiance_mode_equals_the_exact_direct_irradiance_in_absorbing_water():
+    """``classes="irradiance"`` (the light-traced reference of ``benchmarks/bench_reference_hybrid.py``):
+    in water that only absorbs, the flux its photons leave on the chart is the strobes' direct flux,
+    ``∫ I f(θ) cos θ_i e^{−c r} / r² dA`` over every piece (numerical quadrature, 40 × 40 points each):
+    within 4 batch SE + 0.5 % (the chart's body behind its patches gets none); photons on the side away
+    from the camera are not counted."""
+    from rigsim.preview.backscatter import beam_angle
+    from rigsim.preview.geometry import occluded
+    from rigsim.preview.multiple import _cell_areas
+    from rigsim.scene.types import unit
+    from rigsim.water import Spectrum1D, TabulatedWater
+
+    wl = np.array([550.0])
+    water = TabulatedWater("absorbing", Spectrum1D.constant(0.4), Spectrum1D.constant(1e-9),
+                           preset("coastal").phase)
+    scene = build_scene(load_rig("rigs/twin-strobes-45-wide.toml"), water, "colorchecker", 1.0)
+    surf = scene_surfaces(scene)
+    tables = phase_tables(water.phase, water.wavelength_range_nm)
+    c, b = np.asarray(water.c_per_m(wl), float), np.asarray(water.b_per_m(wl), float)
+    ms = trace_multiple(scene, surf, list(scene.lights), wl, c=c, b=b, kappa_cam=c, tables=tables,
+                        weights=tables.weights_at(wl), **SIZE, cutoff_rad=np.radians(30.0), photons=200_000,
+                        classes="irradiance", spectral_nodes=None, seed=5, batches=8)
+    traced = float((ms.irradiance[..., 0] * _cell_areas(surf)).sum())
+    g = (np.arange(40) + 0.5) / 40 * 2 - 1
+    exact = 0.0
+    for k in range(len(surf)):
+        hw, hh = surf.half_size[k]
+        pts = (surf.center[k] + hw * g[:, None, None] * surf.u[k] + hh * g[None, :, None] * surf.v[k]).reshape(-1, 3)
+        n = surf.normal[k] if np.dot(surf.normal[k], np.subtract(scene.camera.position_m, surf.center[k])) > 0 \
+            else -surf.normal[k]
+        for light in scene.lights:
+            vv = pts - np.asarray(light.position_m, float)
+            r = np.linalg.norm(vv, axis=1)
+            cos_i = np.clip(-(vv / r[:, None]) @ n, 0.0, None)
+            f = light.beam.relative_intensity(beam_angle(vv / r[:, None], unit(light.aim)))
+            f = np.where(occluded(surf, pts + 1e-7 * n, np.asarray(light.position_m, float),
+                                  exclude=np.full(len(pts), k + 1)), 0.0, f)  # the body behind the patches
+            intensity = float(np.interp(550.0, light.wavelength_nm, light.axial_intensity))
+            exact += float(np.mean(intensity * f * cos_i * np.exp(-c[0] * r) / r ** 2)) * 4 * hw * hh
+    assert exact > 0
+    se = ms.relative_noise[1] * traced
+    assert abs(traced - exact) < 4 * se + 0.005 * exact, (traced / exact - 1, se / exact)

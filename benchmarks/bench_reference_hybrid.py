@@ -1,0 +1,191 @@
+"""Benchmark: a second reference for the chart where Monte Carlo's is heavy-tailed (turbid, high-albedo water).
+
+Why
+---
+In water that scatters much and absorbs little (Jerlov III: albedo 0.97 in the blue, b·r ≈ 4 per leg at
+3 m) a chart patch is lit by strobe light that has been scattered 4–10 times, mostly by small angles.
+The renderer (``rigsim_vol``) finds that light from the camera side: a path leaves the chart and has to
+rebuild the chain of nearly collinear small-angle scatterings back to a point light, and its estimate
+is heavy-tailed.  Measured (white disk 1.4 m at 3 m, Jerlov III, 450 nm, 96×64): per pixel at 16 spp the
+99.9th percentile is 42× the local mean and the maximum 170×; paths of at most 6 vertices carry 40 % of
+the disk's light without any tail (max 3×), the rest comes from paths of 6–20 vertices; 6 renders of
+64 spp read the disk 9 % below 40 such renders (the typical sample misses the rare large paths, and its
+standard error misses them too).  A chart patch has ~30 pixels: at the agreement benchmark's 16 × 32
+spp its mean is often tens of per cent low with a small standard error — the "disagreements" of the
+Jerlov III, 5C, 7C and 9C strobe cells are of that kind.  No setting of the integrator's techniques
+(light-directed share, aureole, equiangular vertex share, phase-weighted angles, MIS heuristic, Russian
+roulette cap) removes the tail (each measured; several make it worse), nor does a Henyey–Greenstein
+phase function in place of Petzold's.
+
+The light is traced the other way here, where it is easy: from the strobes.
+1. **Irradiance on the targets by light tracing**: :func:`rigsim.preview.multiple.trace_multiple` with
+   ``classes="irradiance"`` — photons from each strobe's beam, every scattering exact (no δ-truncation,
+   every band), every hit on the side of a target the camera sees deposited in a texture cell, the
+   photons reflected on diffusely (light that goes chart → water → chart is in it).  Photon weights are
+   bounded: no tail.
+2. **The camera leg**: Mitsuba's own ``volpath`` with the targets black and *emitting* ``ρ/π E`` per
+   texture cell (each cell a rectangle with a uniform area emitter), the same water medium, one render per
+   band (``volpath`` draws distances for its hero wavelength only; inside a 10 nm band that is harmless).
+3. **The veil**: the renderer's own backscatter AOV (light of paths that never meet a surface, which has
+   no such tail: ±0.3–0.8 % at 4–8 renders).
+
+Their sum counts every path once, at its last surface interaction: an independent reference for the
+patches (the light leg shares the photon tracer's code with the fast engine's multiply scattered light,
+but not its approximations: no δ-truncation, no class split, no spectral nodes, no smoothing).
+
+Status (2026-12-03): a measuring tool, not yet the study's check: its own noise is too large.  The light
+tracer's photon noise is 1.5 % over the whole chart at 400 000 photons (44 s), so ~8 % per patch; per patch
+and band group at 1 % it would need ~10⁸ photons of this numpy tracer.  In coastal water at 1 m, where
+Monte Carlo is good (±0.1–5 %), hybrid / Monte Carlo − 1 over the five patches was −15…+6 % (400 000
+photons, 2 × 2 emitters per piece): that noise.  Jerlov III, colorchecker at 3 m, ``twin-strobes-45-wide``:
+fast / hybrid − 1 over the same patches −3…+16 % (400 000 photons) and −3…+7 % (800 000, another seed),
+while fast / Monte Carlo (2–4 renders of 32 spp) read −28…+56 %.  What it would take to be the check: the
+tracer on Dr.Jit (or far fewer bands per photon) and the emitters sampled by power in the camera pass.
+
+    python benchmarks/bench_reference_hybrid.py --water jerlov-III --distance 3
+    python benchmarks/bench_reference_hybrid.py --water coastal --distance 1 --photons 400000   # a check of it
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+REGIONS = ("patch:white 9.5 (.05 D)", "patch:neutral 5 (.70 D)", "patch:blue", "patch:black 2 (1.5 D)", "patch:red",
+           "open water")
+
+
+def emissive_camera_pass(scene, surf, E, rho, wl, bw, *, width, height, spp, seed, cells_per_side=2):
+    """Radiance (H, W, B) at the camera of the targets emitting ``ρ/π E`` (black otherwise), through the water:
+    Mitsuba ``volpath``, one render per band.  ``E`` (S, T, T, B) is averaged to ``cells_per_side``² emitters
+    per piece: ``volpath`` picks one emitter at random for each next-event estimate, and with 64 per patch
+    (1 600 in all) the forward-scattered light of the camera leg was 20–30 % noisy per patch at 8 spp."""
+    from rigsim.preview.multiple import TEXTURE as traced_cells
+
+    if traced_cells % cells_per_side:
+        raise SystemExit(f"--cells must divide {traced_cells}")
+    f = traced_cells // cells_per_side
+    E = E.reshape(E.shape[0], cells_per_side, f, cells_per_side, f, E.shape[-1]).mean(axis=(2, 4))
+    TEXTURE = cells_per_side
+    from rigsim.render.mitsuba_scene import WATER_KEY, MitsubaScene, water_medium_dict
+    from rigsim.render.renderer import render_pass
+    from rigsim.render.variant import mitsuba
+    from rigsim.scene.optics import outside_index, world_radius_m
+
+    mi, _ = mitsuba()
+    cam = np.asarray(scene.camera.position_m, float)
+    cells = []
+    for k in range(len(surf)):
+        if surf.is_disk[k] or surf.is_mesh[k]:
+            raise SystemExit("the hybrid reference handles flat rectangles only (the colorchecker)")
+        n = surf.normal[k] if np.dot(surf.normal[k], cam - surf.center[k]) > 0 else -surf.normal[k]
+        hw, hh = surf.half_size[k]
+        for iu in range(TEXTURE):
+            for iv in range(TEXTURE):
+                cen = (surf.center[k] + surf.u[k] * hw * ((iu + 0.5) / TEXTURE * 2 - 1)
+                       + surf.v[k] * hh * ((iv + 0.5) / TEXTURE * 2 - 1))
+                m = np.eye(4)
+                m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = surf.u[k] * hw / TEXTURE, surf.v[k] * hh / TEXTURE, n, cen
+                cells.append((k, iu, iv, mi.ScalarTransform4f(m.tolist())))
+    medium = mi.load_dict(water_medium_dict(scene.water))
+    out = np.zeros((height, width, len(wl)))
+    black = {"type": "diffuse", "reflectance": {"type": "uniform", "value": 0.0}}
+    for bi in range(len(wl)):
+        d = {"type": "scene", "integrator": {"type": "volpath", "max_depth": -1},
+             WATER_KEY: {"type": "sphere", "center": cam.tolist(), "radius": world_radius_m(scene),
+                         "bsdf": {"type": "null"}, "interior": medium}}
+        for j, (k, iu, iv, tw) in enumerate(cells):
+            radiance = max(float(rho[k, bi] / np.pi * E[k, iu, iv, bi]), 0.0)
+            d[f"cell{j}"] = {"type": "rectangle", "to_world": tw, "bsdf": black, "exterior": medium,
+                             "emitter": {"type": "area", "radiance": {"type": "uniform", "value": radiance}}}
+        ms = MitsubaScene(scene=mi.load_dict(d, optimize=False), medium=medium, surfaces=[], mode="full",
+                          n_outside=outside_index(scene))
+        img, _ = render_pass(ms, scene.camera, width=width, height=height, spp=spp, seed=seed + 7 * bi,
+                             band_lo=np.array([wl[bi] - bw[bi] / 2]), band_w=np.array([bw[bi]]))
+        out[..., bi] = img[..., 0]
+    return out
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--water", default="jerlov-III")
+    ap.add_argument("--distance", type=float, default=3.0, help="chart distance (m)")
+    ap.add_argument("--rig", default="twin-strobes-45-wide")
+    ap.add_argument("--size", default="96x64")
+    ap.add_argument("--photons", type=int, default=800_000, help="photons of the light tracer")
+    ap.add_argument("--camera-spp", type=int, default=16, help="paths per pixel of each band's camera pass")
+    ap.add_argument("--seeds", type=int, default=4, help="Monte Carlo renders (the veil, and the plain reference)")
+    ap.add_argument("--spp", type=int, default=32, help="paths per pixel of each Monte Carlo render")
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--cells", type=int, default=2, help="emitters per side of each chart piece in the camera pass")
+    a = ap.parse_args(argv)
+    w, h = (int(x) for x in a.size.lower().split("x"))
+
+    from rigsim.config.rig import load_rig
+    from rigsim.metrics.agreement import colour_groups, comparison_regions
+    from rigsim.preview import render_preview
+    from rigsim.preview.geometry import scene_surfaces
+    from rigsim.preview.multiple import trace_multiple
+    from rigsim.render import render
+    from rigsim.scene.build import build_scene
+    from rigsim.scene.phase_tables import phase_tables
+    from rigsim.spectrum import band_edges
+    from rigsim.water import preset
+
+    water = preset(a.water)
+    scene = build_scene(load_rig(ROOT / "rigs" / f"{a.rig}.toml"), water, "colorchecker", a.distance)
+    wl, bw = band_edges(np.arange(400.0, 701.0, 10.0))
+    strobes = [l for l in scene.lights if l.kind == "strobe"]
+    t0 = time.perf_counter()
+    surf = scene_surfaces(scene)
+    tab = phase_tables(water.phase, water.wavelength_range_nm)
+    c, b = water.c_per_m(wl), water.b_per_m(wl)
+    lt = trace_multiple(scene, surf, strobes, wl, c=c, b=b, kappa_cam=c, tables=tab, weights=tab.weights_at(wl),
+                        width=w, height=h, cutoff_rad=np.radians(30.0), photons=a.photons, classes="irradiance",
+                        spectral_nodes=None, seed=a.seed)
+    t_lt = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    reflected = emissive_camera_pass(scene, surf, lt.irradiance, surf.reflectance(wl)[1:], wl, bw, width=w, height=h,
+                                     spp=a.camera_spp, seed=a.seed, cells_per_side=a.cells)
+    t_cam = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    refs, veils = [], []
+    for i in range(a.seeds):
+        r = render(scene, width=w, height=h, spp=a.spp, seed=a.seed * 7919 + i, wavelengths_nm=wl,
+                   layers=("object_id", "backscatter"))
+        refs.append(r.radiant_exposure(1.0))  # strobes only: the flash
+        veils.append(np.asarray(r.layers["flash_backscatter"]))
+    t_mc = time.perf_counter() - t0
+    fast = render_preview(scene, width=w, height=h, wavelengths_nm=wl, layers=("object_id",), seed=a.seed)
+    hf = fast.radiant_exposure(1.0)
+    hybrid = np.mean(veils, axis=0) + reflected
+    regions = comparison_regions(np.asarray(fast.layers["object_id"]), fast.meta.get("object_ids", {}), "colorchecker")
+    print(f"{a.water}, colorchecker at {a.distance:g} m, {a.rig}, {w}x{h}: light tracer {a.photons} photons "
+          f"{t_lt:.0f} s (irradiance noise {lt.relative_noise[1]:.2%} over the targets), camera pass "
+          f"{a.camera_spp} spp x {len(wl)} bands {t_cam:.0f} s, Monte Carlo {a.seeds} x {a.spp} spp {t_mc:.0f} s\n")
+    print(f"{'region':24s} {'group':6s} {'fast/MC - 1':>16s} {'fast/hybrid - 1':>16s} {'hybrid/MC - 1':>16s} "
+          f"{'reflected share':>16s}")
+    n = len(refs)
+    for name in REGIONS:
+        if name not in regions:
+            continue
+        m = regions[name]
+        for g, idx in colour_groups(wl).items():
+            per = np.array([x[m][:, idx].mean() for x in refs])
+            mc, se = per.mean(), per.std(ddof=1) / math.sqrt(n) / per.mean()
+            f, hy = hf[m][:, idx].mean(), hybrid[m][:, idx].mean()
+            print(f"{name[:24]:24s} {g[:6]:6s} {f / mc - 1:+9.1%} ±{se:4.1%} {f / hy - 1:+16.1%} "
+                  f"{hy / mc - 1:+9.1%} ±{se:4.1%} {reflected[m][:, idx].mean() / hy:16.2f}")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
