@@ -374,7 +374,7 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
                                     weights=water.components.weights_at(wl), width=width, height=height,
                                     cutoff_rad=cutoff, photons=photons or default_photons(width, height), grid=ms_grid or DEFAULT_GRID,
                                     truncate_rad=None if ms_truncate_deg is None else np.radians(ms_truncate_deg),
-                                    seed=0 if seed is None else int(seed))
+                                    seed=0 if seed is None else int(seed), bandwidth_nm=bw)
                 ms_info[gname] = {"photons": ms.photons, "seconds": round(ms.seconds, 3),
                                   "relative_noise": [float(x) for x in ms.relative_noise]}
                 ms_by_group[gname] = ms

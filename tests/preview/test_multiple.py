@@ -205,3 +205,34 @@ def test_irradiance_mode_equals_the_exact_direct_irradiance_in_absorbing_water()
     assert exact > 0
     se = ms.relative_noise[1] * traced
     assert abs(traced - exact) < 4 * se + 0.005 * exact, (traced / exact - 1, se / exact)
+
+
+def test_each_band_gets_the_lights_power_averaged_over_the_band():
+    """The lights' power in a band is their spectrum's average over it (as the renderer's and the analytic
+    model's), not its value at the band centre: the twin strobes' flash spectrum starts at 400 nm, so the
+    395–405 nm band holds about half its centre value.  In water whose optics do not depend on wavelength
+    every band's photons are the same, so each band's veil over that average is the same number (exact;
+    with the centre value the 400 nm band's was twice the others')."""
+    from rigsim.scene.types import Scene
+    from rigsim.spectrum import band_average
+    from rigsim.water import Spectrum1D, TabulatedWater, petzold_average_particle
+
+    rig = load_rig("rigs/twin-strobes-45-wide.toml")
+    water = TabulatedWater("grey", Spectrum1D.constant(0.3), Spectrum1D.constant(1.5), petzold_average_particle())
+    scene = Scene(rig=rig, water=water, targets=())
+    wl = np.array([400.0, 410.0, 420.0])
+    tables = phase_tables(water.phase, water.wavelength_range_nm)
+    w = tables.weights_at(wl)
+    assert np.allclose(w, w[0])  # the same phase function in every band
+    c, b = np.asarray(water.c_per_m(wl), float), np.asarray(water.b_per_m(wl), float)
+    ms = trace_multiple(scene, scene_surfaces(scene), list(scene.lights), wl, c=c, b=b, kappa_cam=c, tables=tables,
+                        weights=w, **SIZE, cutoff_rad=np.radians(MS_CUTOFF_DEG), photons=20_000, seed=1,
+                        bandwidth_nm=np.full(3, 10.0))
+    veil = ms.veil_cum[:, :, -1].sum(axis=(0, 1))  # (bands,)
+    light = scene.lights[0]
+    assert all(np.array_equal(l.axial_intensity, light.axial_intensity) for l in scene.lights)
+    avg = band_average(np.asarray(light.wavelength_nm, float), np.asarray(light.axial_intensity, float), wl - 5, wl + 5)
+    centre = np.interp(wl, light.wavelength_nm, light.axial_intensity)
+    assert avg[0] < 0.7 * centre[0]  # the step: the test would not tell the two apart without it
+    ratio = veil / avg
+    np.testing.assert_allclose(ratio, ratio[1], rtol=1e-6)
