@@ -351,7 +351,7 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
         Band centres (B,), beam attenuation and scattering coefficient (1/m, (B,)) and the phase
         components' weights (B, K) there.
     bandwidth_nm
-        Band widths (nm; default :func:`rigsim.spectrum.band_edges`'): each light's power in a band is
+        Band widths (nm; default :func:`rigsim.spectrum.band_edges`): each light's power in a band is
         its spectrum's average over the band (:func:`rigsim.spectrum.band_average`), as the renderer's
         and the analytic model's — a flash spectrum that starts at 400 nm has half its centre value in
         the 395–405 nm band (with the centre value the multiply scattered light there was twice the
