@@ -68,18 +68,17 @@ def emissive_camera_pass(scene, surf, E, rho, wl, bw, *, width, height, spp, see
     Mitsuba ``volpath``, one render per band.  ``E`` (S, T, T, B) is averaged to ``cells_per_side``² emitters
     per piece: ``volpath`` picks one emitter at random for each next-event estimate, and with 64 per patch
     (1 600 in all) the forward-scattered light of the camera leg was 20–30 % noisy per patch at 8 spp."""
-    from rigsim.preview.multiple import TEXTURE as traced_cells
-
-    if traced_cells % cells_per_side:
-        raise SystemExit(f"--cells must divide {traced_cells}")
-    f = traced_cells // cells_per_side
-    E = E.reshape(E.shape[0], cells_per_side, f, cells_per_side, f, E.shape[-1]).mean(axis=(2, 4))
-    TEXTURE = cells_per_side
     from rigsim.render.mitsuba_scene import WATER_KEY, MitsubaScene, water_medium_dict
     from rigsim.render.renderer import render_pass
     from rigsim.render.variant import mitsuba
     from rigsim.scene.optics import outside_index, world_radius_m
 
+    traced = E.shape[1]  # the tracer's texture cells per side
+    if traced % cells_per_side:
+        raise SystemExit(f"--cells must divide {traced}")
+    f = traced // cells_per_side
+    E = E.reshape(E.shape[0], cells_per_side, f, cells_per_side, f, E.shape[-1]).mean(axis=(2, 4))
+    T = cells_per_side
     mi, _ = mitsuba()
     cam = np.asarray(scene.camera.position_m, float)
     cells = []
@@ -88,12 +87,12 @@ def emissive_camera_pass(scene, surf, E, rho, wl, bw, *, width, height, spp, see
             raise SystemExit("the hybrid reference handles flat rectangles only (the colorchecker)")
         n = surf.normal[k] if np.dot(surf.normal[k], cam - surf.center[k]) > 0 else -surf.normal[k]
         hw, hh = surf.half_size[k]
-        for iu in range(TEXTURE):
-            for iv in range(TEXTURE):
-                cen = (surf.center[k] + surf.u[k] * hw * ((iu + 0.5) / TEXTURE * 2 - 1)
-                       + surf.v[k] * hh * ((iv + 0.5) / TEXTURE * 2 - 1))
+        for iu in range(T):
+            for iv in range(T):
+                cen = (surf.center[k] + surf.u[k] * hw * ((iu + 0.5) / T * 2 - 1)
+                       + surf.v[k] * hh * ((iv + 0.5) / T * 2 - 1))
                 m = np.eye(4)
-                m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = surf.u[k] * hw / TEXTURE, surf.v[k] * hh / TEXTURE, n, cen
+                m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = surf.u[k] * hw / T, surf.v[k] * hh / T, n, cen
                 cells.append((k, iu, iv, mi.ScalarTransform4f(m.tolist())))
     medium = mi.load_dict(water_medium_dict(scene.water))
     out = np.zeros((height, width, len(wl)))
