@@ -20,6 +20,10 @@ Measured 2026-12-01 (single band at 550 nm, a = 0.15, b = 1.2 /m, Petzold averag
 function, the twin-strobes-45-wide rig): at ψ_c = 30° the analytic veil equals the traced class A
 to 0.8 % (±0.6 %), at 90° it is 19 % high; the disk's class-A irradiance is 3 % (30°) and 3.9 %
 (90°) high.
+Measured 2026-12-03 (``--waters jerlov-9C,jerlov-5C --cutoffs 20,30 --wavelength 450``): veil
+analytic / traced class A 0.991 ± 0.012 (9C, 20°), 0.977 ± 0.010 (9C, 30°), 0.999 ± 0.011 and
+0.996 ± 0.012 (5C); the disk's class-A irradiance 1.097 ± 0.027, 1.081 ± 0.011 (9C) and 1.063 ± 0.025,
+1.051 ± 0.023 (5C): in turbid water the analytic model lights a target up to 8 % more than its paths.
 """
 
 from __future__ import annotations
