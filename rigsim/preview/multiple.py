@@ -77,6 +77,14 @@ engine; fractions of Monte Carlo's veil):
 * ψ_c moves the answer although it should not: 20° / 25° / 30° / 45° give −2.9 / −3.4 / −6.0 / −9.2 %
   (blue, the chart's open water in 9C) and in Jerlov 5C 20° overshoots (+3.3 % red against −0.2 % at
   30°): no single cut-off is right in both, so ψ_c stays 30°.
+* the kernel in the water (:data:`KERNEL_M`) trades a bias for noise: near the port it is tens of cells
+  wide and moves class-B light from the bright edges of the image to its centre.  The open water around
+  a chart (fast / Monte Carlo − 1, blue / green / red, 16 seeds): Jerlov 7C at 3 m −6.5 / −3.7 / −2.9 %
+  with it, −4.6 / −2.6 / −2.0 % without; 9C at 1 m −5.5 / −3.2 / −2.4 % (±1.8 %) and −4.0 / −2.7 / −2.4 %
+  (±0.8 %); III at 3 m −1.1 and −0.5 %; 5C at 1 m −2.7 / −0.6 / −0.1 % and −2.3 / −1.4 / −1.3 %.  Without
+  it the class-B noise of a pixel, over seeds, is 9 % (median; 90th percentile 18 %) of the pixel's
+  value in 9C at 1 m and 7 % (14 %) in 7C at 3 m, against 6 % (8 %) and 2 % (4 %) with it: blotches in
+  the photograph, so it stays (0.05 m: between the two).
 * the class-B light is itself Monte Carlo: in 9C at 1 m its region mean varies 7–10 % (coefficient of
   variation between seeds of 100 000 photons), 2–3 % of the blue veil, with an occasional seed far
   above (+19 % of the veil once in 24: a scattering vertex within 0.2 m of the port).  The
