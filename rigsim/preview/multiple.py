@@ -91,9 +91,11 @@ engine; fractions of Monte Carlo's veil):
   agreement check's standard error is the reference's alone.
 
 The agreement benchmark (``twin-strobes-45-wide``, 1 and 3 m, ``data/fast_engine/agreement.csv``,
-published before the band-average fix of 2026-12-03) has its cells beyond tolerance in the chart
-patches of high-albedo water, where Monte Carlo's own chart patches are heavy-tailed (Jerlov III at
-3 m: per pixel the 99.9th percentile is 42× the mean at 16 paths per pixel).
+re-published 2026-12-03 after the band-average and disk-cell fixes): 56 of 7 776 radiance cells beyond
+tolerance + t·SE, 33 of them in Jerlov 9C, 9 in III, 8 in 7C — the open water of 9C at 1 m (−9.8 ±
+0.4 %, blue) and 7C at 3 m (−8.3 ± 0.7 %), and chart patches of high-albedo water, where Monte Carlo's
+own chart patches are heavy-tailed (Jerlov III at 3 m: per pixel the 99.9th percentile is 42× the mean
+at 16 paths per pixel).
 
 References
 ----------
@@ -300,7 +302,7 @@ def _texture_cell(surf: SceneSurfaces, k: np.ndarray, p: np.ndarray, side_normal
 
 def _disk_cell_fraction(n_sub: int = 64) -> np.ndarray:
     """(TEXTURE, TEXTURE) fraction of each cell of a disk's bounding square on the disk (``n_sub``² points
-    per cell: 1/4096 of a cell's area at worst).  Until 2026-12-03 the cells whose centres are on the
+    per cell).  Until 2026-12-03 the cells whose centres are on the
     disk shared its area equally: a whole cell inside held π/52 of r² for its 1/16, and the class-B
     irradiance of the disk's interior read 3–4 % high, its rim low
     (``test_a_disks_texture_cells_hold_the_irradiance_of_their_part_of_the_disk``: +4.0 ± 0.4 %)."""
