@@ -277,6 +277,13 @@ class MultipleScattering:
         return self.irradiance[k, iu, iv]
 
 
+def _texture_half_sizes(surf: SceneSurfaces, k: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Half-width and half-height (m) of the square the texture of surfaces ``k`` (0-based) covers: a flat
+    piece's own; a disk's and a mesh's square of their radius each way."""
+    hw = surf.half_size[k, 0]
+    return hw, np.where(surf.is_disk[k] | surf.is_mesh[k], hw, surf.half_size[k, 1])
+
+
 def _texture_cell(surf: SceneSurfaces, k: np.ndarray, p: np.ndarray, side_normal: np.ndarray
                   ) -> tuple[np.ndarray, np.ndarray]:
     """Texture cell of points ``p`` on surfaces ``k`` (0-based): a flat piece's own square of TEXTURE²
@@ -286,8 +293,7 @@ def _texture_cell(surf: SceneSurfaces, k: np.ndarray, p: np.ndarray, side_normal
     rel = p - surf.center[k]
     a = np.sum(rel * surf.u[k], axis=-1)
     b = np.sum(rel * surf.v[k], axis=-1)
-    hw = surf.half_size[k, 0]
-    hh = np.where(surf.is_disk[k] | surf.is_mesh[k], surf.half_size[k, 0], surf.half_size[k, 1])
+    hw, hh = _texture_half_sizes(surf, k)
     iu = np.clip(((a / np.maximum(hw, 1e-12) + 1) * 0.5 * TEXTURE).astype(np.int64), 0, TEXTURE - 1)
     fv = (b / np.maximum(hh, 1e-12) + 1) * 0.5
     iv = np.clip((fv * TEXTURE).astype(np.int64), 0, TEXTURE - 1)
@@ -319,11 +325,10 @@ def _cell_areas(surf: SceneSurfaces) -> np.ndarray:
     disk's cells are the squares of its bounding square, each holding the part of it on the disk
     (:data:`_DISK_CELL_FRACTION`; a cell off the disk gets no light); a mesh's cells hold the area of its
     triangles (16 points on each) on the side facing the cell's way (the file's winding taken as outward)."""
-    hh = np.where(surf.is_disk, surf.half_size[:, 0], surf.half_size[:, 1])  # a disk's square: its radius each way
-    square = 4 * surf.half_size[:, 0] * hh / (TEXTURE * TEXTURE)
+    hw, hh = _texture_half_sizes(surf, np.arange(len(surf)))
+    square = 4 * hw * hh / (TEXTURE * TEXTURE)
     frac = np.where(surf.is_disk[:, None, None], _DISK_CELL_FRACTION[None], 1.0)
-    with np.errstate(divide="ignore"):
-        out = np.where(frac > 0, square[:, None, None] * frac, np.inf)
+    out = np.where(frac > 0, square[:, None, None] * frac, np.inf)
     ms = surf.meshes
     if ms is not None:
         g = (np.arange(4) + 0.5) / 4

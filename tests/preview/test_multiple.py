@@ -30,6 +30,30 @@ def _scene(water="jerlov-3C", target="black-disk", distance=1.0):
     return build_scene(rig, water, target, distance, size_m=0.35 * distance)
 
 
+def _direct_irradiance(scene, pts, normal, c_per_m, *, surf=None, exclude=None):
+    """The strobes' direct irradiance (W/(m² nm) at 550 nm) at points ``pts`` (…, 3) on the side of unit
+    ``normal``: ``Σ I f(θ) cos θ_i e^{−c r} / r²``; with ``surf``, light the other surfaces block (all but
+    object ``exclude``) is left out."""
+    from rigsim.preview.backscatter import beam_angle
+    from rigsim.preview.geometry import occluded
+    from rigsim.scene.types import unit
+
+    shape = pts.shape[:-1]
+    pts = pts.reshape(-1, 3)
+    out = np.zeros(len(pts))
+    for light in scene.lights:
+        vv = pts - np.asarray(light.position_m, float)
+        r = np.linalg.norm(vv, axis=1)
+        cos_i = np.clip(-(vv / r[:, None]) @ normal, 0.0, None)
+        f = light.beam.relative_intensity(beam_angle(vv / r[:, None], unit(light.aim)))
+        if surf is not None:
+            f = np.where(occluded(surf, pts + 1e-7 * normal, np.asarray(light.position_m, float),
+                                  exclude=np.full(len(pts), exclude)), 0.0, f)
+        intensity = float(np.interp(550.0, light.wavelength_nm, light.axial_intensity))
+        out += intensity * f * cos_i * np.exp(-c_per_m * r) / r ** 2
+    return out.reshape(shape)
+
+
 def test_auto_turns_it_on_where_the_wide_angle_scattering_is_strong():
     on = {w: multiple_scattering_matters(_scene(w)) for w in ("pure-sea", "oceanic", "jerlov-IB", "clear",
                                                              "coastal", "jerlov-II", "jerlov-3C", "jerlov-9C")}
@@ -169,10 +193,7 @@ def test_irradiance_mode_equals_the_exact_direct_irradiance_in_absorbing_water()
     ``∫ I f(θ) cos θ_i e^{−c r} / r² dA`` over every piece (numerical quadrature, 40 × 40 points each):
     within 4 batch SE + 0.5 % (the chart's body behind its patches gets none); photons on the side away
     from the camera are not counted."""
-    from rigsim.preview.backscatter import beam_angle
-    from rigsim.preview.geometry import occluded
     from rigsim.preview.multiple import _cell_areas
-    from rigsim.scene.types import unit
     from rigsim.water import Spectrum1D, TabulatedWater
 
     wl = np.array([550.0])
@@ -193,15 +214,8 @@ def test_irradiance_mode_equals_the_exact_direct_irradiance_in_absorbing_water()
         pts = (surf.center[k] + hw * g[:, None, None] * surf.u[k] + hh * g[None, :, None] * surf.v[k]).reshape(-1, 3)
         n = surf.normal[k] if np.dot(surf.normal[k], np.subtract(scene.camera.position_m, surf.center[k])) > 0 \
             else -surf.normal[k]
-        for light in scene.lights:
-            vv = pts - np.asarray(light.position_m, float)
-            r = np.linalg.norm(vv, axis=1)
-            cos_i = np.clip(-(vv / r[:, None]) @ n, 0.0, None)
-            f = light.beam.relative_intensity(beam_angle(vv / r[:, None], unit(light.aim)))
-            f = np.where(occluded(surf, pts + 1e-7 * n, np.asarray(light.position_m, float),
-                                  exclude=np.full(len(pts), k + 1)), 0.0, f)  # the body behind the patches
-            intensity = float(np.interp(550.0, light.wavelength_nm, light.axial_intensity))
-            exact += float(np.mean(intensity * f * cos_i * np.exp(-c[0] * r) / r ** 2)) * 4 * hw * hh
+        # (the chart's body behind its patches shadows them)
+        exact += float(np.mean(_direct_irradiance(scene, pts, n, c[0], surf=surf, exclude=k + 1))) * 4 * hw * hh
     assert exact > 0
     se = ms.relative_noise[1] * traced
     assert abs(traced - exact) < 4 * se + 0.005 * exact, (traced / exact - 1, se / exact)
@@ -214,9 +228,7 @@ def test_a_disks_texture_cells_hold_the_irradiance_of_their_part_of_the_disk():
     parts of the disk (quadrature, 32 × 32 points per cell), within 4 batch SE + 0.5 %.  With the cells
     whose centres are on the disk sharing its area equally (until 2026-12-03) the interior read
     +4.0 ± 0.4 %."""
-    from rigsim.preview.backscatter import beam_angle
     from rigsim.preview.multiple import TEXTURE
-    from rigsim.scene.types import unit
     from rigsim.water import Spectrum1D, TabulatedWater
 
     wl = np.array([550.0])
@@ -236,14 +248,7 @@ def test_a_disks_texture_cells_hold_the_irradiance_of_their_part_of_the_disk():
     n = surf.normal[0] if np.dot(surf.normal[0], np.subtract(scene.camera.position_m, surf.center[0])) > 0 \
         else -surf.normal[0]
     pts = surf.center[0] + R * (g[:, None, None] * surf.u[0] + g[None, :, None] * surf.v[0])
-    exact = np.zeros(pts.shape[:2])
-    for light in scene.lights:
-        vv = pts - np.asarray(light.position_m, float)
-        r = np.linalg.norm(vv, axis=-1)
-        cos_i = np.clip(-(vv / r[..., None]) @ n, 0.0, None)
-        f = light.beam.relative_intensity(beam_angle((vv / r[..., None]).reshape(-1, 3), unit(light.aim))).reshape(r.shape)
-        intensity = float(np.interp(550.0, light.wavelength_nm, light.axial_intensity))
-        exact += intensity * f * cos_i * np.exp(-c[0] * r) / r ** 2
+    exact = _direct_irradiance(scene, pts, n, c[0])
     on = g[:, None] ** 2 + g[None, :] ** 2 <= 1.0
 
     def per_cell(a):
@@ -255,7 +260,8 @@ def test_a_disks_texture_cells_hold_the_irradiance_of_their_part_of_the_disk():
     E = ms.irradiance[0, ..., 0]
     assert np.all(E[area == 0] == 0)
     total = float(flux_exact.sum())
-    for name, cells in (("interior", area > 0.999 * (2 * R / TEXTURE) ** 2), ("rim", (area > 0) & (area <= 0.999 * (2 * R / TEXTURE) ** 2))):
+    whole = area > 0.999 * (2 * R / TEXTURE) ** 2  # the cells wholly on the disk
+    for name, cells in (("interior", whole), ("rim", (area > 0) & ~whole)):
         assert cells.sum() >= 8
         traced = float((E * area)[cells].sum())
         want = float(flux_exact[cells].sum())
