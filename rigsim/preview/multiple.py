@@ -77,14 +77,16 @@ engine; fractions of Monte Carlo's veil):
 * ψ_c moves the answer although it should not: 20° / 25° / 30° / 45° give −2.9 / −3.4 / −6.0 / −9.2 %
   (blue, the chart's open water in 9C) and in Jerlov 5C 20° overshoots (+3.3 % red against −0.2 % at
   30°): no single cut-off is right in both, so ψ_c stays 30°.
-* the kernel in the water (:data:`KERNEL_M`) trades a bias for noise: near the port it is tens of cells
-  wide and moves class-B light from the bright edges of the image to its centre.  The open water around
-  a chart (fast / Monte Carlo − 1, blue / green / red, 16 seeds): Jerlov 7C at 3 m −6.5 / −3.7 / −2.9 %
-  with it, −4.6 / −2.6 / −2.0 % without; 9C at 1 m −5.5 / −3.2 / −2.4 % (±1.8 %) and −4.0 / −2.7 / −2.4 %
-  (±0.8 %); III at 3 m −1.1 and −0.5 %; 5C at 1 m −2.7 / −0.6 / −0.1 % and −2.3 / −1.4 / −1.3 %.  Without
-  it the class-B noise of a pixel, over seeds, is 9 % (median; 90th percentile 18 %) of the pixel's
-  value in 9C at 1 m and 7 % (14 %) in 7C at 3 m, against 6 % (8 %) and 2 % (4 %) with it: blotches in
-  the photograph, so it stays (0.05 m: between the two).
+* the kernel in the water (:data:`KERNEL_M`) trades a bias for noise.  Uncapped, near the port it
+  was tens of cells wide: it flattened each near bin's veil over the image and lost part of it off the
+  image's edges.  The open water around a chart (fast / Monte Carlo − 1, blue / green / red, 16 seeds):
+  Jerlov 7C at 3 m −6.5 / −3.7 / −2.9 % with it, −4.6 / −2.6 / −2.0 % without; 9C at 1 m −5.5 / −3.2 /
+  −2.4 % (±1.8 %) and −4.0 / −2.7 / −2.4 % (±0.8 %); III at 3 m −1.1 and −0.5 %; 5C at 1 m −2.7 / −0.6 /
+  −0.1 % and −2.3 / −1.4 / −1.3 %.  Without it the class-B noise of a pixel, over seeds, is 9 % (median;
+  90th percentile 18 %) of the pixel's value in 9C at 1 m and 7 % (14 %) in 7C at 3 m, against 6 % (8 %)
+  and 2 % (4 %) with it: blotches in the photograph.  So it stays, at most 1.5 cells wide
+  (:data:`KERNEL_MAX_CELLS`, with the measurements that chose it): most of the bias goes, and the noise
+  falls too.
 * the class-B light is itself Monte Carlo: in 9C at 1 m its region mean varies 7–10 % (coefficient of
   variation between seeds of 100 000 photons), 2–3 % of the blue veil, with an occasional seed far
   above (+19 % of the veil once in 24: a scattering vertex within 0.2 m of the port).  The
@@ -173,6 +175,20 @@ NEAR_ZONE_M = 1.0
 #: 0.2–0.5 m, with a coefficient of variation of 1 between seeds), while the light scattered there
 #: by more than 30° twice is smooth over decimetres.  Far away the blur is below a cell.
 KERNEL_M = 0.2
+#: The class-B kernel's width in the image is at most this many cells of the class-B grid (its
+#: standard deviation).  Near the port ``KERNEL_M / s`` is tens of cells (17 in the first range bin of a
+#: 16 mm lens behind a dome): there the kernel spread a bin's light over many times the image, the
+#: middle of a veil brightest in the middle fell to half and a third of its light was lost
+#: (``test_the_kernel_in_the_water_keeps_the_shape_and_the_light_of_a_near_port_veil``), the light
+#: of the water in front of a target moved onto the open water around it, and one vertex's outlier
+#: spread over the whole image.  Capped at 1.5 cells (2026-12-03, 12 fast seeds against 16 Monte Carlo
+#: renders of 32 spp at 96 x 64, twin strobes, ColorChecker; blue / green / red open water around it;
+#: uncapped -> capped): Jerlov 7C at 3 m -6.1 / -4.2 / -3.1 -> -4.9 / -3.4 / -2.4 % (+- 0.2-0.6), its
+#: black patch +4.8 / +7.0 / +4.2 -> +0.9 / +4.9 / +2.4 %, white +5.0 / +5.7 / +5.9 -> -0.3 / +2.7 / +3.5 %;
+#: 9C at 1 m -8.3 / -5.3 / -3.2 -> -6.0 / -4.0 / -2.4 %; III at 3 m -1.2 / -1.4 / -1.1 -> -0.6 / -1.0 /
+#: -0.7 %; 5C at 1 m -3.4 / -1.9 / -0.3 -> -3.1 / -2.0 / -0.7 %.  The spread of the open water's blue
+#: mean between seeds: 9C 2.7 -> 1.5 %, 7C 2.1 -> 1.1 %, 5C 0.9 -> 0.6 %.
+KERNEL_MAX_CELLS = 1.5
 #: The near zone's flights are drawn from two strategies, combined by the balance heuristic (Veach &
 #: Guibas 1995): uniform in the cone that holds the zone, and — with probability
 #: :data:`NEAR_AIM_FRACTION` — aimed at a point of a disc of radius :data:`NEAR_AIM_RADIUS_M` about the
@@ -870,7 +886,7 @@ def _smooth_in_water(veil: np.ndarray, edges: np.ndarray, omega: np.ndarray) -> 
     lead = veil.ndim - 4
     w = omega[(None,) * lead + (slice(None), slice(None), None)]
     for k, s in enumerate(s_mid):
-        sigma = KERNEL_M / s / cell
+        sigma = min(KERNEL_M / s / cell, KERNEL_MAX_CELLS)
         if sigma < 0.3:
             break  # the rest (farther) would not change
         sig = (0,) * lead + (sigma, sigma, 0)
