@@ -92,12 +92,18 @@ engine; fractions of Monte Carlo's veil):
   above (+19 % of the veil once in 24: a scattering vertex within 0.2 m of the port).  The
   agreement check's standard error is the reference's alone.
 
-The agreement benchmark (``twin-strobes-45-wide``, 1 and 3 m, ``data/fast_engine/agreement.csv``,
-re-published 2026-12-03 after the band-average and disk-cell fixes): 56 of 7 776 radiance cells beyond
-tolerance + t·SE, 33 of them in Jerlov 9C, 9 in III, 8 in 7C — the open water of 9C at 1 m (−9.8 ±
-0.4 %, blue) and 7C at 3 m (−8.3 ± 0.7 %), and chart patches of high-albedo water, where Monte Carlo's
-own chart patches are heavy-tailed (Jerlov III at 3 m: per pixel the 99.9th percentile is 42× the mean
-at 16 paths per pixel).
+The agreement benchmark (``twin-strobes-45-wide``, 1 and 3 m, ``data/fast_engine/agreement.csv``;
+strobe rows re-published 2026-12-04 with the kernel's cap, against the same Monte Carlo renders):
+35 of 7 776 radiance cells beyond tolerance + t·SE (56 before the cap), 15 of them in Jerlov 9C, 8 in
+III, 4 in 7C, 4 in 5C, 1 in 3C (strobes) and 3 in Jerlov I (daylight at 15 m) — the open water of 9C
+at 1 m (−6.6 ± 0.4 %, blue; −9.8 % before) and 7C at 3 m (−5.9 ± 0.9 %; −8.3 %), and chart patches
+of high-albedo water, where Monte Carlo's own chart patches are heavy-tailed (Jerlov III at 3 m: the
+light the chart reflects, per pixel and render, reaches 100–450× its mean at 32 paths per pixel).
+The fast engine's veil is low where the strobes' beams are (the image's sides) and a little high
+between them: in 9C at 1 m and 7C at 3 m by image column 0.91–0.92 of Monte Carlo at the sides,
+1.02–1.04 in the middle; the analytic class A alone is 0.95–0.96 of its traced paths at the sides
+(``benchmarks/bench_fast_engine_split.py``).  The beam's small-angle blur keeps the beam's power
+(on the sphere, within 0.4 % at 1 m and 1.4 % at 3 m in 9C), so it is not that.
 
 References
 ----------
