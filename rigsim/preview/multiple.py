@@ -880,7 +880,8 @@ def _splat_near(acc, x, wgt_out, d_in, normal, n_sig, touched, c, b, kappa_cam, 
 
 def _smooth_in_water(veil: np.ndarray, edges: np.ndarray, omega: np.ndarray) -> np.ndarray:
     """Blur each range bin of ``veil`` (…, rows, cols, bins, bands) across the image by
-    :data:`KERNEL_M` at the bin's distance (a mean weighted by the cells' solid angles)."""
+    :data:`KERNEL_M` at the bin's distance, at most :data:`KERNEL_MAX_CELLS` cells (a mean weighted by the
+    cells' solid angles)."""
     from scipy.ndimage import gaussian_filter
 
     rows, cols = omega.shape
