@@ -101,12 +101,14 @@ of high-albedo water, where Monte Carlo's own chart patches are heavy-tailed (Je
 light the chart reflects, per pixel and render, reaches 100–450× its mean at 32 paths per pixel).
 The fast engine's veil is low where the strobes' beams are (the image's sides) and a little high
 between them: in 9C at 1 m and 7C at 3 m by image column 0.91–0.92 of Monte Carlo at the sides,
-1.02–1.04 in the middle; the analytic class A alone is 0.95–0.96 of its traced paths at the sides
-(``benchmarks/bench_fast_engine_split.py``).  Most of it is the class-B kernel's boundary bias: in 9C
-open water (450 nm, 48 x 32) the default class B holds 0.239 / 0.265 of the every-path veil in the
-outer columns where the exact estimators on a 3x finer grid hold 0.325 / 0.298 (the veil rises steeply
-towards the sides and a 1.5-cell kernel with ``mode="nearest"`` averages the lower inside values into
-the edge cells); the middle columns agree (0.41–0.43).  A local-linear smoother would remove it.  The
+1.02–1.04 in the middle; the analytic class A alone is 0.95–0.98 of its traced paths at the sides (two runs)
+(``benchmarks/bench_fast_engine_split.py``).  Most of it is class B's: in 9C open water (450 nm,
+48 x 32, fractions of the every-path veil in the outer columns, left / right) the default class B holds
+0.25 / 0.28, the same estimator on a 3x finer grid 0.28 / 0.30, the exact estimators (no δ-truncation,
+collision estimator) on that grid 0.34 / 0.32; the middle columns agree (0.40–0.47, ±0.02).  So about a
+third is the grid and its kernel (the veil rises steeply towards the sides; a 1.5-cell kernel with
+``mode="nearest"`` averages lower inside values into the edge cells — a local-linear smoother, tried,
+won 0.02 of the 0.09) and the rest the class-B estimators at the image's edges.  The
 beam's small-angle blur keeps the beam's power (on the sphere, within 0.4 % at 1 m and 1.4 % at 3 m in
 9C), so it is not that.
 
