@@ -102,13 +102,17 @@ light the chart reflects, per pixel and render, reaches 100–450× its mean at 
 The fast engine's veil is low where the strobes' beams are (the image's sides) and a little high
 between them: in 9C at 1 m and 7C at 3 m by image column 0.91–0.92 of Monte Carlo at the sides,
 1.02–1.04 in the middle; the analytic class A alone is 0.95–0.98 of its traced paths at the sides (two runs)
-(``benchmarks/bench_fast_engine_split.py``).  Most of it is class B's: in 9C open water (450 nm,
-48 x 32, fractions of the every-path veil in the outer columns, left / right) the default class B holds
-0.25 / 0.28, the same estimator on a 3x finer grid 0.28 / 0.30, the exact estimators (no δ-truncation,
-collision estimator) on that grid 0.34 / 0.32; the middle columns agree (0.40–0.47, ±0.02).  So about a
-third is the grid and its kernel (the veil rises steeply towards the sides; a 1.5-cell kernel with
-``mode="nearest"`` averages lower inside values into the edge cells — a local-linear smoother, tried,
-won 0.02 of the 0.09) and the rest the class-B estimators at the image's edges.  The
+(``benchmarks/bench_fast_engine_split.py``).  Most of it is class B's, and it is the 16-cell grid
+and its kernel, not the estimators: in 9C open water (450 nm, 48 x 32, fractions of the every-path veil)
+the default class B holds 0.25 / 0.28 in the outer 4-pixel columns (left / right) on its 16-cell grid;
+on a 48-cell grid, over 4 seeds of 200 000 photons (outer 6-pixel columns, ± standard error), the
+default estimators hold 0.287 / 0.284 (± 0.015 / 0.019), the collision estimator with δ-truncation
+0.293 / 0.288 (± 0.008 / 0.011) and the exact ones (no δ-truncation, collision estimator) 0.299 / 0.299
+(± 0.005 / 0.004); the middle columns agree too (0.38–0.44).  (Single seeds had suggested the estimators
+lost 0.03–0.06 at the edges: it was their noise.)  The veil rises steeply towards the sides, and a
+1.5-cell kernel with ``mode="nearest"`` on 16 cells averages lower inside values into the edge cells (a
+local-linear smoother, tried, won 0.02 of the 0.09; a finer grid costs noise: 48 cells gave nine times
+the cells' noise).  The
 beam's small-angle blur keeps the beam's power (on the sphere, within 0.4 % at 1 m and 1.4 % at 3 m in
 9C), so it is not that.
 
