@@ -116,7 +116,7 @@ case "$job" in
     say "running the test suite"
     set +e
     # one worker per core (pytest-xdist): the suite is mostly single-threaded numpy and browser waits;
-    # on 2 cores on 2026-12-04 it took 29 min 14 s with two workers against 52 min 57 s with one
+    # on 2 cores on 2026-12-04, fresh clones with a cold kernel cache: 37 min 53 s with two workers, 52 min 57 s with one
     "$venv/bin/python" -m pytest -m "not slow" -q -n auto --durations=15 "${@:2}"
     rc=$?
     set -e
