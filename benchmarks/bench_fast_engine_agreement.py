@@ -154,6 +154,8 @@ def _f(x) -> float:
 
 def print_table(rows: list[dict]) -> None:
     """Per lighting and water: the worst deviation of each kind (and colour group), then the worst cells."""
+    from rigsim.metrics.agreement import HEAVY_TAIL, heavy_tailed
+
     by = defaultdict(list)
     for r in rows:
         by[(r["lighting"], r["water"])].append(r)
@@ -172,10 +174,11 @@ def print_table(rows: list[dict]) -> None:
         bad = sum(r["verdict"] == "disagrees" for r in rs)
         print(f"{light:14s} {water:18s} {_f(rs[0]['tolerance']):4.0%} " + " ".join(cells) + f"  {bad}/{len(rs)}")
     worst = sorted(rows, key=lambda r: -abs(_f(r["deviation"])))[:15]
-    print("\nworst cells:")
+    print("\nworst cells (tail: the largest Monte Carlo render over the median, where heavy-tailed):")
     for r in worst:
+        tail = f"  tail {_f(r.get('monte_carlo_tail')):.1f}" if heavy_tailed(r.get("monte_carlo_tail")) else ""
         print(f"  {_f(r['deviation']):+7.1%} ± {_f(r['deviation_se']):.1%}  {r['verdict']:12s} {r['lighting']}, {r['rig']}, "
-              f"{r['water']}, {r['target']} at {_f(r['distance_m']):g} m: {r['quantity']} {r['region']} {r['group']}")
+              f"{r['water']}, {r['target']} at {_f(r['distance_m']):g} m: {r['quantity']} {r['region']} {r['group']}{tail}")
     se = sorted(_f(r["deviation_se"]) for r in rows if r["quantity"] == "radiance")
     if se:
         print(f"\nreference noise (SE of the Monte Carlo mean, radiance cells): median {se[len(se) // 2]:.1%}, "
@@ -186,7 +189,9 @@ def print_table(rows: list[dict]) -> None:
     for k, n in per_case.items():
         by_water[k[2]].append(n)
     print("Monte Carlo renders per case: " + ", ".join(f"{w} {min(v)}-{max(v)}" for w, v in by_water.items()))
-    print(f"cells beyond tolerance + t·SE (95 %, Student's t for each case's renders): {n_bad} of {len(rows)}")
+    n_tail = sum(r["verdict"] == "disagrees" and heavy_tailed(r.get("monte_carlo_tail")) for r in rows)
+    print(f"cells beyond tolerance + t·SE (95 %, Student's t for each case's renders): {n_bad} of {len(rows)}"
+          f" ({n_tail} of them with a heavy-tailed reference: one render >= {HEAVY_TAIL:g}x the median)")
 
 
 if __name__ == "__main__":

@@ -23,8 +23,10 @@ Measured 2026-12-04 (Jerlov III, ColorChecker at 3 m, 64 renders, 619 s): the wh
 after 16, −1.1 ± 3.7 % after 64; the neutral 8 patch +8.3 ± 3.8 % after 64.  The open water, light
 tailed, stays at −1.0 ± 0.4 %.  The Monte Carlo renderer's chart patches in that water are heavy-tailed:
 its 16-render references cannot tell a 20 % error, and the "disagrees" cells of the table there are the
-reference's, not shown to be the fast engine's.  Jerlov 9C, ColorChecker at 1 m (48 renders): see the
-closing note of 2026-12-04; the red patch's green group held one render 55 x the median.  Why the tail,
+reference's, not shown to be the fast engine's.  Jerlov 9C, ColorChecker at 1 m (48 renders, 319 s): the
+white patch's blue read +39.5 ± 13.9 % after 16 renders (+29.5 ± 7.0 % published), +5.9 ± 11.0 % after 48;
+the red patch's green group held one render 54 x the median; the red patch's blue stayed +16.4 ± 3.5 %
+(largest / median 1.8: light-tailed, so more likely the fast engine's) and the open water −4.6 ± 1.2 %.  Why the tail,
 and a second reference that traces the light from the strobes instead: ``bench_reference_hybrid.py``.
 """
 

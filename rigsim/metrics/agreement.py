@@ -22,6 +22,16 @@ reference's 95 % confidence half-width — ``t · SE`` with Student's t for the 
 one (Student 1908: the spread of 4 renders estimates their standard error with 3 degrees of freedom,
 t = 3.18; "2 SE" is an 86 % interval for 4 renders: a fast value just at the tolerance was called a
 disagreement in one check in seven) — else ``disagrees``.
+
+The standard error is only as good as the renders' spread.  Where Monte Carlo's estimator is
+heavy-tailed — chart patches lit by strobe light scattered many times in high-albedo water (Jerlov III,
+5C–9C: ``benchmarks/bench_reference_hybrid.py``, ``benchmarks/bench_reference_convergence.py``) — most
+sets of renders miss the rare large paths, so their mean is low and their spread small, and now and then
+one render holds many times the others.  Each region value therefore also carries ``reference_tail``,
+the largest render's region mean over the median render's: 1.0–1.6 for light-tailed regions over up to
+64 renders of 32 paths per pixel (open water, chart patches in coastal water), 3–55 where a render caught
+such a path (:data:`HEAVY_TAIL`).  A large tail says that cell's reference is not converged, whichever
+way its verdict went; a small one does not prove it is (the rare paths may not have been drawn).
 """
 
 from __future__ import annotations
@@ -36,7 +46,7 @@ from rigsim.spectrum import colour_groups
 
 __all__ = ["RegionDeviation", "MetricDeviation", "CLEAR_WATERS", "MIN_CONTRAST", "PublishedAgreement",
            "published_agreement", "write_published", "PUBLISHED_TABLE", "tolerance_for", "comparison_regions",
-           "compare_renders", "verdict", "noise_multiplier", "relative_se"]
+           "compare_renders", "verdict", "noise_multiplier", "relative_se", "HEAVY_TAIL", "heavy_tailed"]
 
 #: Waters in which the fast engine should agree within 3 % (Jerlov's oceanic types I–III and the
 #: original write-up's clear waters); elsewhere 5 %.
@@ -47,6 +57,24 @@ CLEAR_WATERS = frozenset({"jerlov-I", "jerlov-IA", "jerlov-IB", "jerlov-II", "je
 #: Contrasts are compared where the Monte Carlo contrast is at least this (1 %): below it the target
 #: is invisible, and a relative difference of two tiny contrasts says nothing about the picture.
 MIN_CONTRAST = 0.01
+
+
+#: A reference whose largest render's region mean is at least this many times the median render's is
+#: called heavy-tailed (:attr:`RegionDeviation.reference_tail`).  Measured 2026-12-04, 96×64, 32 paths per
+#: pixel (``benchmarks/bench_reference_convergence.py``): light-tailed regions 1.0–1.6 over 4–64 renders
+#: (coastal-regions chart and water at 1 m; the open water of Jerlov III at 3 m and 9C at 1 m); Jerlov III's
+#: white patch at 3 m 10–11 once 32 renders held its rare paths; Jerlov 9C's patches at 1 m 1.8–8 over 48
+#: renders, one 54.
+HEAVY_TAIL = 3.0
+
+
+def heavy_tailed(tail) -> bool:
+    """Whether a reference's ``largest / median render`` (:attr:`RegionDeviation.reference_tail`) marks it
+    heavy-tailed (:data:`HEAVY_TAIL`); False where it is unknown."""
+    try:
+        return math.isfinite(float(tail)) and float(tail) >= HEAVY_TAIL
+    except (TypeError, ValueError):
+        return False
 
 
 def tolerance_for(water_name: str) -> float:
@@ -98,7 +126,8 @@ class RegionDeviation:
     the whole noise of the difference: the analytic part of the fast engine has none, but its
     multiply scattered light (:mod:`rigsim.preview.multiple`, in the waters that scatter widely) is a
     Monte Carlo estimate whose noise is not in it — in Jerlov 9C at 1 m 2–3 % of the blue open-water
-    veil between seeds, rarely much more.
+    veil between seeds, rarely much more.  ``reference_tail`` is the largest render's region mean over
+    the median render's (module docstring, :data:`HEAVY_TAIL`; NaN if unknown).
     """
 
     region: str
@@ -107,6 +136,7 @@ class RegionDeviation:
     fast: float
     reference: float
     reference_se: float
+    reference_tail: float = float("nan")
 
     @property
     def deviation(self) -> float:
@@ -191,8 +221,10 @@ def compare_renders(fast, references: list, target_kind: str) -> tuple[list[Regi
         for g, idx in groups.items():
             f = float(h_fast[m][:, idx].mean())
             per = np.array([h[m][:, idx].mean() for h in h_refs])
+            med = float(np.median(per))
             out.append(RegionDeviation(name, g, int(m.sum()), f, float(per.mean()),
-                                       float(per.std(ddof=1) / math.sqrt(n))))
+                                       float(per.std(ddof=1) / math.sqrt(n)),
+                                       float(per.max() / med) if med > 0 else float("nan")))
     masks = target_masks(oid, fast.meta.get("object_ids", {}), target_kind)
     mf = scene_metrics(fast, target_kind, masks=masks)[0]
     mrefs = [scene_metrics(r, target_kind, masks=masks)[0] for r in references]

@@ -253,7 +253,7 @@ def agreement_rows(checks: list[dict]) -> list[dict]:
             rows.append({**base, "quantity": "radiance", "region": r["region"], "group": r["group"],
                          "pixels": r["pixels"], "fast": r["fast"], "monte_carlo": r["reference"],
                          "monte_carlo_se": r["reference_se"], "deviation": r["deviation"],
-                         "deviation_se": r["deviation_se"],
+                         "deviation_se": r["deviation_se"], "monte_carlo_tail": r.get("reference_tail"),
                          "verdict": verdict(r["deviation"], r["deviation_se"], rec["tolerance"], rec.get("seeds"))})
         for m in rec["metrics"]:
             rows.append({**base, "quantity": m["metric"], "region": "target", "group": "luminance", "pixels": None,

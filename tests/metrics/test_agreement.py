@@ -46,3 +46,31 @@ def test_within_noise_is_the_95_percent_interval_of_the_seeds():
     assert verdict(-0.12, 0.025, 0.05) == "disagrees"
     assert verdict(-0.12, 0.025, 0.05, seeds=4) == "within noise"
     assert verdict(-0.12, 0.025, 0.05, seeds=8) == "disagrees"
+
+
+def test_a_reference_with_one_render_far_above_the_rest_is_called_heavy_tailed():
+    """The tail of each region value is the largest render's region mean over the median render's: near 1 for
+    renders that scatter by a few per cent, the spike's factor when one render holds a rare large path (as
+    Monte Carlo's chart patches in high-albedo water do); the verdict itself is unchanged by it."""
+    from rigsim.metrics.agreement import HEAVY_TAIL, compare_renders, heavy_tailed
+    from rigsim.spectral_image import SpectralImage
+
+    rng = np.random.default_rng(4)
+    wl = np.array([450.0, 550.0, 650.0])
+
+    def img(level):
+        return SpectralImage(radiance=np.full((30, 40, 3), level, np.float32), wavelength_nm=wl,
+                             bandwidth_nm=np.full(3, 100.0), layers={"object_id": np.zeros((30, 40), np.int32)})
+
+    fast = img(1.0)
+    calm = [img(1.0 + 0.03 * rng.standard_normal()) for _ in range(8)]
+    regions, _ = compare_renders(fast, calm, "colorchecker")
+    assert [r.region for r in regions] == ["open water"] * 3
+    assert all(1.0 <= r.reference_tail < 1.2 and not heavy_tailed(r.reference_tail) for r in regions)
+    spiked = calm[:7] + [img(20.0)]
+    regions, _ = compare_renders(fast, spiked, "colorchecker")
+    for r in regions:
+        assert r.reference_tail == pytest.approx(20.0 / np.median([c.radiance.mean() for c in spiked]), rel=1e-3)
+        assert r.reference_tail >= HEAVY_TAIL and heavy_tailed(r.reference_tail)
+        assert r.record()["reference_tail"] == r.reference_tail
+    assert not heavy_tailed(None) and not heavy_tailed("") and not heavy_tailed(float("nan"))
