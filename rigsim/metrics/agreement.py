@@ -46,7 +46,8 @@ from rigsim.spectrum import colour_groups
 
 __all__ = ["RegionDeviation", "MetricDeviation", "CLEAR_WATERS", "MIN_CONTRAST", "PublishedAgreement",
            "published_agreement", "write_published", "PUBLISHED_TABLE", "tolerance_for", "comparison_regions",
-           "compare_renders", "verdict", "noise_multiplier", "relative_se", "HEAVY_TAIL", "heavy_tailed"]
+           "compare_renders", "verdict", "noise_multiplier", "relative_se", "HEAVY_TAIL", "heavy_tailed",
+           "case_key", "target_tails"]
 
 #: Waters in which the fast engine should agree within 3 % (Jerlov's oceanic types I–III and the
 #: original write-up's clear waters); elsewhere 5 %.
@@ -75,6 +76,32 @@ def heavy_tailed(tail) -> bool:
         return math.isfinite(float(tail)) and float(tail) >= HEAVY_TAIL
     except (TypeError, ValueError):
         return False
+
+
+def case_key(row: dict) -> tuple:
+    """The checked case an agreement row (``agreement.csv``) belongs to."""
+    return tuple(row.get(k) for k in ("lighting", "rig", "water", "target", "distance_m"))
+
+
+def target_tails(rows: list[dict]) -> dict[tuple, float]:
+    """Per checked case (:func:`case_key`), the largest ``monte_carlo_tail`` over its target's radiance rows
+    (chart patches, disk).  The tail belongs to the estimator in that scene more than to one cell: a set of
+    renders that drew none of a patch's rare paths has a small spread and a low mean — the cells that come
+    out ``disagrees`` (in the agreement benchmark of 2026-12-04 every such chart cell had a tail of 1.0–1.9)
+    — while its neighbour patches show them.  Rendered 48–64 times, such cells moved to within noise
+    (``benchmarks/bench_reference_convergence.py``)."""
+    out: dict[tuple, float] = {}
+    for r in rows:
+        if r.get("quantity") != "radiance" or not (str(r.get("region", "")).startswith("patch:") or r.get("region") == "disk"):
+            continue
+        try:
+            t = float(r.get("monte_carlo_tail"))
+        except (TypeError, ValueError):
+            continue
+        if math.isfinite(t):
+            k = case_key(r)
+            out[k] = max(out.get(k, 0.0), t)
+    return out
 
 
 def tolerance_for(water_name: str) -> float:

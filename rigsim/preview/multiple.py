@@ -99,6 +99,12 @@ III, 4 in 7C, 4 in 5C, 1 in 3C (strobes) and 3 in Jerlov I (daylight at 15 m) �
 at 1 m (−6.6 ± 0.4 %, blue; −9.8 % before) and 7C at 3 m (−5.9 ± 0.9 %; −8.3 %), and chart patches
 of high-albedo water, where Monte Carlo's own chart patches are heavy-tailed (Jerlov III at 3 m: the
 light the chart reflects, per pixel and render, reaches 100–450× its mean at 32 paths per pixel).
+Re-run 2026-12-04 (the strobe cases of III, 3C, 5C, 7C, 9C, same renders) with the references' tails
+(:func:`rigsim.metrics.agreement.target_tails`): 34 of those 35 cells are on a target whose reference has
+a patch with one render 3.3–57× the median render; the 35th is 9C's open water.  Rendered 48–64 times
+(``benchmarks/bench_reference_convergence.py``) most of them fall within the noise — III's white patch at
+3 m from +23 % to −5 ± 12 % (blue), 9C's at 1 m from +30 % to +6 ± 11 % — while a few stay above, light-tailed:
+9C's red patch at 1 m +16 ± 4 % (blue), III's neutral 8 at 3 m +8 ± 4 %.
 The fast engine's veil is low where the strobes' beams are (the image's sides) and a little high
 between them: in 9C at 1 m and 7C at 3 m by image column 0.91–0.92 of Monte Carlo at the sides,
 1.02–1.04 in the middle; the analytic class A alone is 0.95–0.98 of its traced paths at the sides (two runs)

@@ -419,11 +419,12 @@ def trust_sentences(agreement: list[dict], render: dict) -> list[str]:
 def trust_section(d: Path, agreement: list[dict], spec: dict) -> list[str]:
     """"How far to trust these numbers": per water, the worst deviation of each kind of region and
     metric, and the checked cases' pictures side by side."""
-    from rigsim.metrics.agreement import HEAVY_TAIL, heavy_tailed, noise_multiplier
+    from rigsim.metrics.agreement import HEAVY_TAIL, case_key, heavy_tailed, noise_multiplier, target_tails
 
     if not agreement:
         return []
     waters = list(dict.fromkeys(r["water"] for r in agreement))
+    tails = target_tails(agreement)
     head = ("<tr><th>water</th><th>cases checked (m)</th><th>tolerance</th>"
             + "".join(f"<th>{html.escape(k)}</th>" for k, _ in _REGION_KINDS) + "</tr>")
     trs = []
@@ -440,6 +441,9 @@ def trust_section(d: Path, agreement: list[dict], spec: dict) -> list[str]:
             where = f"{x['region'].replace('patch:', '')}, {x['group']}, {x['distance_m']:g} m"
             if heavy_tailed(x.get("monte_carlo_tail")):
                 where += f"; Monte Carlo heavy-tailed: one render {float(x['monte_carlo_tail']):.0f}× the median"
+            elif x["region"] != "open water" and heavy_tailed(tails.get(case_key(x))):
+                where += (f"; Monte Carlo heavy-tailed on this target (a region's render "
+                          f"{tails[case_key(x)]:.0f}× the median)")
             cells.append(f"<td style='background:{colour}' title='{html.escape(where)}'>{x['deviation']:+.1%} "
                          f"± {x['deviation_se']:.1%}<br><small>{html.escape(where)}</small></td>")
         trs.append(f"<tr><td>{html.escape(w)}</td><td>{', '.join(f'{x:g}' for x in dists)}</td>"
@@ -460,9 +464,10 @@ def trust_section(d: Path, agreement: list[dict], spec: dict) -> list[str]:
            f"target; edge pixels left out) and colour groups (blue &lt; 490 nm, green 490–580, red ≥ 580), ± the "
            f"Monte Carlo reference's standard error; green: within the tolerance, yellow: within it plus the "
            f"reference's 95 % confidence half-width ({t_text}), red: beyond.  Contrast and backscatter share are the scene metrics of the tables "
-           f"above.  Where one Monte Carlo render of a region is {HEAVY_TAIL:g} or more times the median "
-           f"render, the cell says so: there the reference itself is not converged (rare paths carry much of the "
-           f"light, and its standard error understates its error).  Every value is in agreement.csv "
+           f"above.  Where one Monte Carlo render of a region — or of another region of the same target — is "
+           f"{HEAVY_TAIL:g} or more times the median render, the cell says so: there the reference itself is not "
+           f"converged (rare paths carry much of the light; renders that missed them read low with a small "
+           f"spread, so its standard error understates its error).  Every value is in agreement.csv "
            f"(monte_carlo_tail: the largest render over the median).</p>"
            f"<table class='data'>{head}{''.join(trs)}</table>"]
     pics = []

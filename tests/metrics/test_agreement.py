@@ -74,3 +74,20 @@ def test_a_reference_with_one_render_far_above_the_rest_is_called_heavy_tailed()
         assert r.reference_tail >= HEAVY_TAIL and heavy_tailed(r.reference_tail)
         assert r.record()["reference_tail"] == r.reference_tail
     assert not heavy_tailed(None) and not heavy_tailed("") and not heavy_tailed(float("nan"))
+
+
+def test_a_case_is_heavy_tailed_on_its_target_if_any_of_its_target_regions_is():
+    """A patch whose renders all missed the rare paths reads low with a small tail; its case is flagged by
+    the largest tail among the target's regions (the open water and scene metrics do not count)."""
+    from rigsim.metrics.agreement import case_key, heavy_tailed, target_tails
+
+    base = {"lighting": "strobes", "rig": "r", "water": "jerlov-9C", "target": "colorchecker", "distance_m": 1.0}
+    rows = [{**base, "quantity": "radiance", "region": "patch:red", "monte_carlo_tail": 1.2},
+            {**base, "quantity": "radiance", "region": "patch:yellow", "monte_carlo_tail": "56.7"},
+            {**base, "quantity": "radiance", "region": "open water", "monte_carlo_tail": 80.0},
+            {**base, "quantity": "contrast_radiance", "region": "target", "monte_carlo_tail": None},
+            {**base, "distance_m": 3.0, "quantity": "radiance", "region": "patch:red", "monte_carlo_tail": 1.5},
+            {**base, "distance_m": 3.0, "quantity": "radiance", "region": "open water", "monte_carlo_tail": 9.0}]
+    tails = target_tails(rows)
+    assert tails == {case_key(rows[0]): 56.7, case_key(rows[4]): 1.5}
+    assert heavy_tailed(tails[case_key(rows[0])]) and not heavy_tailed(tails[case_key(rows[4])])
