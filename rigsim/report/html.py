@@ -440,10 +440,10 @@ def trust_section(d: Path, agreement: list[dict], spec: dict) -> list[str]:
             colour = {"agrees": "#dfd", "within noise": "#ffd", "disagrees": "#fdd"}.get(x["verdict"], "#fff")
             where = f"{x['region'].replace('patch:', '')}, {x['group']}, {x['distance_m']:g} m"
             if heavy_tailed(x.get("monte_carlo_tail")):
-                where += f"; Monte Carlo heavy-tailed: one render {float(x['monte_carlo_tail']):.0f}× the median"
+                where += f"; Monte Carlo heavy-tailed: one render {float(x['monte_carlo_tail']):.2g}× the median"
             elif x["region"] != "open water" and heavy_tailed(tails.get(case_key(x))):
                 where += (f"; Monte Carlo heavy-tailed on this target (a region's render "
-                          f"{tails[case_key(x)]:.0f}× the median)")
+                          f"{tails[case_key(x)]:.2g}× the median)")
             cells.append(f"<td style='background:{colour}' title='{html.escape(where)}'>{x['deviation']:+.1%} "
                          f"± {x['deviation_se']:.1%}<br><small>{html.escape(where)}</small></td>")
         trs.append(f"<tr><td>{html.escape(w)}</td><td>{', '.join(f'{x:g}' for x in dists)}</td>"
