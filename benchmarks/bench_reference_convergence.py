@@ -71,7 +71,7 @@ def main(argv=None) -> int:
 
     from rigsim.config.rig import load_rig
     from rigsim.errors import RigsimError
-    from rigsim.metrics.agreement import comparison_regions, colour_groups
+    from rigsim.metrics.agreement import compare_renders
     from rigsim.preview import render_preview
     from rigsim.render import render
     from rigsim.scene.build import build_scene
@@ -90,34 +90,31 @@ def main(argv=None) -> int:
     fast = render_preview(scene, width=w, height=h, wavelengths_nm=wl, layers=("object_id",), seed=1)
     print(f"{args.water}, {args.target} at {args.distance:g} m, {args.rig}, {w}x{h}: fast engine {time.perf_counter() - t0:.1f} s",
           flush=True)
-    kind = args.target
-    regs = comparison_regions(np.asarray(fast.layers["object_id"]), fast.meta.get("object_ids", {}), kind)
+    # the same comparison as every study's check (rigsim.metrics.agreement.compare_renders), on the renders so far
+    wanted = None
     if args.regions != "all":
-        regs = {k: v for k, v in regs.items() if not k.startswith("patch:") or k[6:] in DEFAULT_PATCHES}
-    groups = colour_groups(fast.wavelength_nm)
-    names = list(regs)
-    hf = fast.radiant_exposure(1.0)
-    fv = np.array([[hf[regs[n]][:, groups[g]].mean() for g in groups] for n in names])
-    per = []
+        wanted = lambda name: not name.startswith("patch:") or name[6:] in DEFAULT_PATCHES  # noqa: E731
+    renders = []
     t0 = time.perf_counter()
     for s in range(args.renders):
-        si = render(scene, width=w, height=h, spp=args.spp, seed=(50_000 + 7919 * s) % 2**32, wavelengths_nm=wl,
-                    layers=("object_id",))
-        hm = si.radiant_exposure(1.0)
-        per.append([[hm[regs[n]][:, groups[g]].mean() for g in groups] for n in names])
-        k = len(per)
-        if k in REPORT_AT or k == args.renders:
-            P = np.array(per)
-            m, se = P.mean(0), P.std(0, ddof=1) / np.sqrt(k)
-            dev, dse = fv / m - 1.0, se / m
-            tail = P.max(0) / np.median(P, 0)
-            print(f"\nafter {k} renders ({time.perf_counter() - t0:.0f} s): fast / Monte Carlo - 1 "
-                  f"({' / '.join(groups)}), ± SE; largest render / median render")
-            for i, n in enumerate(names):
-                d = " ".join(f"{100 * x:+6.1f}" for x in dev[i])
-                e = " ".join(f"{100 * x:5.1f}" for x in dse[i])
-                tl = " ".join(f"{x:5.2f}" for x in tail[i])
-                print(f"  {n:28s} {d} %  ± {e} %   max/median {tl}", flush=True)
+        renders.append(render(scene, width=w, height=h, spp=args.spp, seed=(50_000 + 7919 * s) % 2**32,
+                              wavelengths_nm=wl, layers=("object_id",)))
+        k = len(renders)
+        if k < 2 or not (k in REPORT_AT or k == args.renders):
+            continue
+        regions, _ = compare_renders(fast, renders, args.target)
+        by_region: dict[str, list] = {}
+        for r in regions:
+            if wanted is None or wanted(r.region):
+                by_region.setdefault(r.region, []).append(r)
+        groups = " / ".join(r.group for r in next(iter(by_region.values())))
+        print(f"\nafter {k} renders ({time.perf_counter() - t0:.0f} s): fast / Monte Carlo - 1 ({groups}), ± SE; "
+              f"largest render / median render")
+        for name, rs in by_region.items():
+            d = " ".join(f"{100 * r.deviation:+6.1f}" for r in rs)
+            e = " ".join(f"{100 * r.deviation_se:5.1f}" for r in rs)
+            tl = " ".join(f"{r.reference_tail:5.2f}" for r in rs)
+            print(f"  {name:28s} {d} %  ± {e} %   max/median {tl}", flush=True)
     return 0
 
 
