@@ -1124,13 +1124,18 @@ def _veil_behind(group: "_Group", image: np.ndarray, hiders) -> np.ndarray:
     f = x - k0
     rs, cs, gpix = _coarse_pixels(H, W)
     rng_pix = group.view.range_m.reshape(-1)[gpix].astype(float)
+    # only the pixels the particles cover (whole-image arithmetic per node was most of the time)
+    upix, inv = np.unique(pix, return_inverse=True)
+    light = image.reshape(-1, B)[upix]
+    acc = np.zeros((len(upix), B), np.float32)
     for k in range(_HIDE_NODES):
         wk = np.where(k0 == k, share * (1.0 - f), 0.0) + np.where(k0 + 1 == k, share * f, 0.0)
         if not np.any(wk):
             continue
-        weight = np.bincount(pix, weights=wk, minlength=H * W).reshape(H, W, 1)
-        front = _to_full(group.veil_in_front(gpix, np.minimum(nodes[k], rng_pix)), rs, cs, H, W)
-        out += weight * np.maximum(image - front, 0.0)
+        weight = np.bincount(inv, weights=wk, minlength=len(upix))[:, None]
+        front = _to_full(group.veil_in_front(gpix, np.minimum(nodes[k], rng_pix)), rs, cs, H, W).reshape(-1, B)[upix]
+        acc += weight * np.maximum(light - front, 0.0)
+    out.reshape(-1, B)[upix] = acc
     return out
 
 
