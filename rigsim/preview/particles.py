@@ -267,16 +267,23 @@ def particle_layers(scene: Scene, ps: ParticleSet, *, width: int, height: int, w
     cover = np.zeros(height * width)
     hid_pix, hid_r, hid_w = [], [], []
     seen = np.zeros(len(P), bool)
-    for who, pix, share in pg.samples:
+    samples = list(pg.samples)
+    for who, pix, share in samples:
         seen[who] = True
-        w = share / solid[pix]  # radiance per unit irradiance at the pupil
-        bins = (pix[:, None] * B + np.arange(B)).ravel()
-        for key, val in at_pupil.items():
-            out[key] += np.bincount(bins, weights=(val[pos[who]] * w[:, None]).ravel(), minlength=height * width * B)
-        cover += np.bincount(pix, weights=geo[who] * w, minlength=height * width)
         hid_pix.append(pix)
         hid_r.append(rng[who])
-        hid_w.append(geo[who] * w)
+        hid_w.append(geo[who] * (share / solid[pix]))  # (share / solid: radiance per unit irradiance at the pupil)
+    if samples:  # every sample at once, binned over the pixels the particles cover (not the whole image)
+        who = np.concatenate([s[0] for s in samples])
+        pix = np.concatenate(hid_pix)
+        w = np.concatenate([share / solid[p] for _, p, share in samples])
+        upix, inv = np.unique(pix, return_inverse=True)
+        bins = (inv[:, None] * B + np.arange(B)).ravel()
+        for key, val in at_pupil.items():
+            if np.any(val):
+                acc = np.bincount(bins, weights=(val[pos[who]] * w[:, None]).ravel(), minlength=len(upix) * B)
+                out[key].reshape(-1, B)[upix] += acc.reshape(-1, B)
+        cover += np.bincount(pix, weights=geo[who] * w, minlength=height * width)
     if glow_T is not None and glow_rad > 0 and idx.size:
         glow = _glow(scene, fp, idx, {k: v * glow_T for k, v in inten.items()}, glow_rad, width, height, n_outside)
         for k in out:
