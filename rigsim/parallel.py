@@ -91,7 +91,8 @@ def run_tasks(items: Sequence[Any], compute: Callable[[Any], Any], store: Callab
               is_done: Callable[[Any], bool] = lambda item: False, key: Callable[[Any], str] = str,
               scheduler: str | None = None, workers: int | None = None, serial: bool = False,
               progress: bool = True, label: str = "tasks",
-              on_done: Callable[[Any], None] | None = None) -> int:
+              on_done: Callable[[Any], None] | None = None,
+              more: Callable[[], Sequence[Any]] | None = None) -> int:
     """Run ``compute(item)`` for every item not yet done and ``store(item, result)`` each result.
 
     Parameters
@@ -116,6 +117,10 @@ def run_tasks(items: Sequence[Any], compute: Callable[[Any], Any], store: Callab
         Show a progress bar with ETA.
     on_done
         Called after each item is stored.
+    more
+        Work decided by finished work: called at the start and after each item is stored; the
+        items it returns that are neither done nor seen before are run too, on the same workers
+        while the others still run (a study's steps beyond the sweep, each decided by the last).
 
     Returns
     -------
@@ -141,6 +146,22 @@ def run_tasks(items: Sequence[Any], compute: Callable[[Any], Any], store: Callab
     prog, task = _progress(label, len(items), done0, progress)
     failures: list[tuple[str, BaseException]] = []
     stored = [0]
+    seen = {key(it) for it in items}
+    total = [len(items)]
+
+    def extra() -> list:
+        """The items ``more`` adds now (neither done nor seen before); the progress bar grows by them."""
+        if more is None:
+            return []
+        new = []
+        for it in more():
+            if key(it) not in seen and not is_done(it):
+                seen.add(key(it))
+                new.append(it)
+        if new:
+            total[0] += len(new)
+            prog.update(task, total=total[0])
+        return new
 
     def finish(it, get_result):
         try:
@@ -157,15 +178,21 @@ def run_tasks(items: Sequence[Any], compute: Callable[[Any], Any], store: Callab
 
     def interrupted() -> Interrupted:
         n_done = done0 + stored[0]
-        return Interrupted(f"{n_done} of {len(items)} {label} items are finished and kept")
+        return Interrupted(f"{n_done} of {total[0]} {label} items are finished and kept")
 
     try:
         with prog:
+            todo += extra()
             if serial or not todo:
-                for it in todo:
+                queue = list(todo)
+                while queue:
+                    it = queue.pop(0)
                     finish(it, lambda it=it: compute(it))
+                    new = extra()
+                    todo += new
+                    queue += new
             else:
-                _run_dask(todo, compute, finish, key, scheduler, workers, label)
+                _run_dask(todo, compute, finish, key, scheduler, workers, label, extra)
     except KeyboardInterrupt:
         raise interrupted() from None
     _raise_failures(failures, label, len(todo))
@@ -205,7 +232,7 @@ class _InWorker:
         return self.compute(item)
 
 
-def _run_dask(todo, compute, finish, key, scheduler, workers, label) -> None:
+def _run_dask(todo, compute, finish, key, scheduler, workers, label, extra) -> None:
     import dask
     from dask.distributed import Client, LocalCluster, as_completed
 
@@ -225,8 +252,14 @@ def _run_dask(todo, compute, finish, key, scheduler, workers, label) -> None:
     try:
         task = _InWorker(compute)
         futures = {client.submit(task, it, pure=False, key=f"{label}-{key(it)}"): it for it in todo}
-        for fut in as_completed(futures):
+        running = as_completed(futures)
+        for fut in running:
             finish(futures[fut], fut.result)
+            for it in extra():  # work the finished work decided: submitted now, beside the rest
+                todo.append(it)
+                new = client.submit(task, it, pure=False, key=f"{label}-{key(it)}")
+                futures[new] = it
+                running.add(new)
     finally:
         _close_quietly(client, cluster)
 

@@ -201,18 +201,15 @@ def run_study(spec: StudySpec, out: str | Path, *, scheduler: str | None = None,
         # the Monte Carlo checks first: the longest items start while the fast cases fill the gaps
         items = [(spec, "check", c) for c in spec.check_cases()] + [(spec, "case", c) for c in spec.cases()]
         try:
+            # visibility beyond the sweep: each step is run as soon as the case before it is stored,
+            # on the same workers beside the rest of the sweep (2026-12-04: the steps had waited for the
+            # whole sweep and then run one at a time in this process — the demo's 26 steps in five
+            # rounds took 2 min 28 s of its 14 min 11 s on 2 cores)
             run_tasks(items, _run_one, lambda it, res: _store_item(out, it, res),
                       is_done=lambda it: _is_done(out, it), key=_item_key, scheduler=scheduler, workers=workers,
                       serial=serial, progress=progress, label="study",
-                      on_done=(lambda it: on_case_done(it[2])) if on_case_done else None)
-            while True:  # visibility beyond the sweep, a step at a time (each decided by the last)
-                _, todo = extension_cases(spec, out)
-                if not todo:
-                    break
-                run_tasks([(spec, "case", c) for c in todo], _run_one, lambda it, res: _store_item(out, it, res),
-                          is_done=lambda it: _is_done(out, it), key=_item_key, serial=True, progress=progress,
-                          label=f"beyond the sweep ({todo[0].distance_m:g} m and similar)",
-                          on_done=(lambda it: on_case_done(it[2])) if on_case_done else None)
+                      on_done=(lambda it: on_case_done(it[2])) if on_case_done else None,
+                      more=lambda: [(spec, "case", c) for c in extension_cases(spec, out)[1]])
         finally:
             assemble_tables(spec, out)  # the finished cases' tables, also when some cases failed
     return out

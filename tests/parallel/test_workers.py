@@ -34,3 +34,28 @@ def test_a_worker_started_with_it_raises_the_thresholds(monkeypatch):
     monkeypatch.setattr(P, "_TUNED", False)
     monkeypatch.delenv("MALLOC_TRIM_THRESHOLD_")
     assert P.tune_allocator() is False  # nothing to undo elsewhere
+
+
+def _pid_of(item) -> int:
+    return os.getpid()
+
+
+def test_work_that_finished_work_decides_runs_on_the_workers_too():
+    """``run_tasks(more=...)``: items that finished items decide (a study's steps beyond the sweep)
+    are run as they are decided — on the cluster's workers like the rest, not afterwards in this
+    process — and in serial runs here; each once, and counted in the return value."""
+    from rigsim.parallel import run_tasks
+
+    for kw in (dict(workers=2), dict(serial=True)):
+        got: dict[int, int] = {}
+        asked = []
+
+        def more():  # a chain: each item decides the next, 0 → 1 → … → 5
+            asked.append(len(got))
+            return [k + 1 for k in got if k < 5]
+
+        n = run_tasks([0], _pid_of, got.__setitem__, more=more, progress=False, **kw)
+        assert sorted(got) == list(range(6)) and n == 6, (kw, got, n)
+        here = set(got.values()) == {os.getpid()}
+        assert here == ("serial" in kw), (kw, got)
+        assert len(asked) == 7  # once at the start, once after each item
