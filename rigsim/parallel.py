@@ -255,9 +255,9 @@ def _run_dask(todo, compute, finish, key, scheduler, workers, label, extra) -> N
         running = as_completed(futures)
         for fut in running:
             finish(futures[fut], fut.result)
-            for it in extra():  # work the finished work decided: submitted now, beside the rest
-                todo.append(it)
-                new = client.submit(task, it, pure=False, key=f"{label}-{key(it)}")
+            for it in extra():  # work the finished work decided: now, ahead of what is still queued
+                todo.append(it)  # (a chain of such steps then ends with the rest, not after it)
+                new = client.submit(task, it, pure=False, key=f"{label}-{key(it)}", priority=1)
                 futures[new] = it
                 running.add(new)
     finally:
