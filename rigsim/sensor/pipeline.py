@@ -377,12 +377,22 @@ def auto_exposure(spectral_image, sensor: Sensor, *, lens: Lens = Lens(), iso: f
         t = float(np.clip(goal / lv, 1e-6, 3600.0))
         return Exposure(t, iso, lens, temperature_c, flash_scale=0.0 if has_flash else 1.0)
     t = flash_shutter_s
-    if level(t, 1.0) >= goal:  # TTL: bisection on the flash output (the percentile is monotone in it)
+    flash_only = not np.any(cont) and (frame is None or not np.any(frame[0]))
+
+    def ttl(goal):
+        """The flash output (≤ 1) that puts :func:`level` at ``goal``: with the flash's light alone the
+        level is proportional to it (a percentile of ``flash · fs``), so ``goal / level(t, 1)``;
+        otherwise a bisection (the level is monotone in it)."""
+        if flash_only:
+            return min(goal / level(t, 1.0), 1.0)
         lo, hi = 0.0, 1.0
         for _ in range(40):
             mid = 0.5 * (lo + hi)
             lo, hi = (mid, hi) if level(t, mid) < goal else (lo, mid)
-        return Exposure(t, iso, lens, temperature_c, flash_scale=0.5 * (lo + hi))
+        return 0.5 * (lo + hi)
+
+    if level(t, 1.0) >= goal:  # TTL
+        return Exposure(t, iso, lens, temperature_c, flash_scale=ttl(goal))
     # full power is not enough: raise the ISO (electrons stay, saturation electrons drop)
     lv = level(t, 1.0)
     if lv <= 0:
@@ -403,11 +413,7 @@ def auto_exposure(spectral_image, sensor: Sensor, *, lens: Lens = Lens(), iso: f
     goal = target * sensor.saturation_e(best)
     if level(t, 1.0) <= goal:
         return Exposure(t, best, lens, temperature_c, flash_scale=1.0)
-    lo, hi = 0.0, 1.0
-    for _ in range(40):
-        mid = 0.5 * (lo + hi)
-        lo, hi = (mid, hi) if level(t, mid) < goal else (lo, mid)
-    return Exposure(t, best, lens, temperature_c, flash_scale=0.5 * (lo + hi))
+    return Exposure(t, best, lens, temperature_c, flash_scale=ttl(goal))
 
 
 def capture(spectral_image, sensor: Sensor, exposure: Exposure, *, seed: int = 0,

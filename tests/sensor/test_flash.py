@@ -45,6 +45,19 @@ def test_ttl_scales_the_flash_to_the_target():
     assert np.percentile(e, 99) == pytest.approx(0.8 * s.saturation_e(ex.iso), rel=1e-6)
 
 
+def test_ttl_with_continuous_light_too_reaches_the_target():
+    """With continuous light beside the flash the level is not proportional to the flash output (the
+    flash-only shortcut does not apply): TTL still puts the 99th percentile at the target."""
+    s = load_sensor("sony_ilce-7rm2")
+    si = _si(0.002, 1e-2)
+    ex = auto_exposure(si, s, percentile=99, target=0.8)
+    assert 0 < ex.flash_scale < 1 and ex.exposure_time_s == pytest.approx(1 / 125)
+    e = mosaic(mean_electrons_rgb(si, s, ex), s.cfa_pattern)
+    assert np.percentile(e, 99) == pytest.approx(0.8 * s.saturation_e(ex.iso), rel=1e-6)
+    only = auto_exposure(_si(0.0, 1e-2), s, percentile=99, target=0.8)
+    assert ex.flash_scale < only.flash_scale  # the continuous light takes part of the target
+
+
 def test_weak_flash_raises_iso():
     s = load_sensor("sony_ilce-7rm2")
     si = _si(0.0, 1e-9)
