@@ -57,9 +57,9 @@ The estimate is unbiased for class B but for the approximations below; its noise
   :data:`KERNEL_M` at its distance (a density estimate over decimetres of water, not over a
   cell's frustum, which near the port holds few photons).
 
-Status (2026-12-03): on by default where the water scatters widely (``multiple="auto"``).  The demo
-(``studies/demo.toml``, 640×427, 100 000 photons per case) runs in 7.5–9 min on 2 cores and its Monte
-Carlo checks agree within tolerance (or within the references' noise) in every water it contains.  Where
+Status (2026-12-04): on by default where the water scatters widely (``multiple="auto"``).  The demo
+(``studies/demo.toml``, 640×427, 100 000 photons per case) runs in 7.5–11 min on 2 cores (README) and its
+Monte Carlo checks agree within tolerance (or within the references' noise) in every water it contains.  Where
 the fast engine still falls short, measured in the worst water (Jerlov 9C, ``twin-strobes-45-wide``,
 open water without a target, bands 450/550/650 nm, 32 Monte Carlo renders, 16 seeds of the fast
 engine; fractions of Monte Carlo's veil):
