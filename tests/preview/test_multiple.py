@@ -30,6 +30,19 @@ def _scene(water="jerlov-3C", target="black-disk", distance=1.0):
     return build_scene(rig, water, target, distance, size_m=0.35 * distance)
 
 
+def _tracer_inputs(scene, **extra):
+    """The bands (:data:`WL`) and the water's inputs of :func:`trace_multiple` for ``scene``, as the fast engine
+    gives them (class-B cutoff :data:`MS_CUTOFF_DEG`), plus ``extra``."""
+    water = scene.water
+    wl = np.array(WL)
+    tables = phase_tables(water.phase, water.wavelength_range_nm)
+    w = tables.weights_at(wl)
+    c, b = np.asarray(water.c_per_m(wl), float), np.asarray(water.b_per_m(wl), float)
+    F = w @ tables.forward_fraction(np.radians(MS_CUTOFF_DEG))
+    return wl, dict(c=c, b=b, kappa_cam=c - b * F, tables=tables, weights=w, **SIZE,
+                    cutoff_rad=np.radians(MS_CUTOFF_DEG), **extra)
+
+
 def _direct_irradiance(scene, pts, normal, c_per_m, *, surf=None, exclude=None):
     """The strobes' direct irradiance (W/(m² nm) at 550 nm) at points ``pts`` (…, 3) on the side of unit
     ``normal``: ``Σ I f(θ) cos θ_i e^{−c r} / r²``; with ``surf``, light the other surfaces block (all but
@@ -119,14 +132,7 @@ def test_delta_truncation_agrees_with_the_exact_tracer():
     agree within their batch noise (4 SE).  (Measured over 8 seeds each, 2026-12-02: veil −9 ± 7 %,
     light reflected by the disk −3 ± 4 %, irradiance +1 ± 2 %.)"""
     scene = _scene(distance=1.5)
-    water = scene.water
-    wl = np.array(WL)
-    tables = phase_tables(water.phase, water.wavelength_range_nm)
-    w = tables.weights_at(wl)
-    c, b = np.asarray(water.c_per_m(wl), float), np.asarray(water.b_per_m(wl), float)
-    F = w @ tables.forward_fraction(np.radians(MS_CUTOFF_DEG))
-    kw = dict(c=c, b=b, kappa_cam=c - b * F, tables=tables, weights=w, **SIZE, cutoff_rad=np.radians(MS_CUTOFF_DEG),
-              photons=150_000, grid=12, batches=6)
+    wl, kw = _tracer_inputs(scene, photons=150_000, grid=12, batches=6)
     surf = scene_surfaces(scene)
     exact = trace_multiple(scene, surf, list(scene.lights), wl, truncate_rad=0.0, track_points=0, seed=3, **kw)
     cut = trace_multiple(scene, surf, list(scene.lights), wl, seed=4, **kw)
@@ -152,14 +158,7 @@ def test_the_roulettes_discount_of_far_photons_changes_the_noise_not_the_light(m
     import rigsim.preview.multiple as multiple
 
     scene = _scene("coastal", "colorchecker", distance=1.5)
-    water = scene.water
-    wl = np.array(WL)
-    tables = phase_tables(water.phase, water.wavelength_range_nm)
-    w = tables.weights_at(wl)
-    c, b = np.asarray(water.c_per_m(wl), float), np.asarray(water.b_per_m(wl), float)
-    F = w @ tables.forward_fraction(np.radians(MS_CUTOFF_DEG))
-    kw = dict(c=c, b=b, kappa_cam=c - b * F, tables=tables, weights=w, **SIZE, cutoff_rad=np.radians(MS_CUTOFF_DEG),
-              photons=60_000, batches=6)
+    wl, kw = _tracer_inputs(scene, photons=60_000, batches=6)
     surf = scene_surfaces(scene)
     monkeypatch.setattr(multiple, "ROULETTE_FREE_M", 1e9)
     plain = trace_multiple(scene, surf, list(scene.lights), wl, seed=5, **kw)
