@@ -17,10 +17,11 @@ from rigsim.metrics.contrast import (
     patch_snr,
 )
 from rigsim.metrics.mtf import mtf50, mtf_slanted_edge
-from rigsim.metrics.visibility import black_disk_range_ZaneveldPegau2003, visibility_range
+from rigsim.metrics.visibility import black_disk_range_ZaneveldPegau2003, visibility_range, visibility_range_se
 
 __all__ = [
     "delta_e_2000", "chart_delta_e", "backscatter_share", "contrast_michelson", "contrast_weber",
     "luminance", "patch_snr", "mtf50", "mtf_slanted_edge", "black_disk_range_ZaneveldPegau2003",
     "visibility_range",
+    "visibility_range_se",
 ]

@@ -95,7 +95,7 @@ import hashlib
 import json
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
@@ -109,7 +109,7 @@ from rigsim.preview.backscatter import (
 )
 from rigsim.preview.forward import SmallAngle
 from rigsim.preview.geometry import SceneSurfaces, cast_rays, occluded, scene_surfaces
-from rigsim.preview.multiple import _cosine_about
+from rigsim.preview.multiple import MultipleScattering, _cosine_about
 from rigsim.preview.tiles import default_threads, no_hugepage_advice, row_tiles, run, thread_map
 from rigsim.scene.daylight_field import SceneDaylight, height_factor, path_radiance, scene_daylight
 from rigsim.scene.particles import scene_particles
@@ -120,7 +120,7 @@ from rigsim.spectrum import DEFAULT_WAVELENGTHS_NM, band_average, band_edges
 from rigsim.scene.imaging import IMAGE_LAYERS, check_int, check_scene_for_bands, image_request
 from rigsim.scene.optics import angular_pitch_rad, camera_rays, fov_water_deg, outside_index, port_reach_m, world_radius_m
 
-__all__ = ["render_preview", "PREVIEW_LAYERS", "band_edges"]
+__all__ = ["render_preview", "render_photon_batches", "PREVIEW_LAYERS", "band_edges"]
 
 #: Ground-truth layers ``render_preview`` can make (as the renderer's).
 PREVIEW_LAYERS = IMAGE_LAYERS
@@ -221,7 +221,8 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
                    ms_grid: int | None = None, ms_truncate_deg: float | None = None, spp: int | None = None,
                    seed: int | None = None,
                    max_depth: int | None = None, progress: ProgressCallback | None = None,
-                   threads: int | None = None) -> SpectralImage:
+                   threads: int | None = None, traced: Mapping[str, MultipleScattering] | None = None,
+                   traced_out: dict | None = None) -> SpectralImage:
     """Fast semi-analytic image of a :class:`~rigsim.scene.types.Scene` (see module docstring).
 
     Parameters
@@ -276,6 +277,11 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
     threads
         Threads of the per-pixel passes and of the forward blur (None:
         :func:`~rigsim.preview.tiles.default_threads`, the cores this process may use; the image does not depend on it).
+    traced, traced_out
+        The multiply scattered light of a light group (``"flash"``, ``"continuous"``) already traced for
+        this scene and image size (:class:`~rigsim.preview.multiple.MultipleScattering`), used instead of
+        tracing it again (``traced``); a dict that receives the groups' traced light (``traced_out``):
+        :func:`render_photon_batches` makes an image with each batch of the photons from them.
 
     Returns
     -------
@@ -366,7 +372,10 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
                 if lamp.light is not None:
                     tables.append(lamp.light)
             ms = None
-            if multiple and has_water and lights and water.b.max() > 0:
+            if multiple and has_water and lights and water.b.max() > 0 and traced and gname in traced:
+                ms = traced[gname]
+                ms_by_group[gname] = ms
+            elif multiple and has_water and lights and water.b.max() > 0:
                 from rigsim.preview.multiple import DEFAULT_GRID, default_photons, trace_multiple
 
                 kap = water.c - water.b * water.F if forward else water.c
@@ -504,9 +513,48 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
         {k: meta[k] for k in ("water", "camera", "lights", "targets")}, sort_keys=True,
         default=str).encode()).hexdigest()[:16]
     meta["wall_time_s"] = time.perf_counter() - t_start
+    if traced_out is not None:
+        traced_out.update(ms_by_group)
     tick(1.0, "done")
     return SpectralImage(radiance=radiance, wavelength_nm=wl, bandwidth_nm=bw, layers=out_layers, meta=meta,
                          scene=scene, render=RenderInfo("preview"))
+
+
+def render_photon_batches(scene: Scene, traced: Mapping[str, MultipleScattering], *, traced_size: tuple[int, int],
+                          width: int, height: int, **kwargs) -> list[SpectralImage]:
+    """The image of ``scene`` once with each independent batch of the photons that traced its multiply
+    scattered light, at ``width × height``: the scatter of a number measured on them is the photons'
+    noise in that number.
+
+    The class-B light enters the image linearly, so the batch images average to the image made with all
+    the photons, and the standard error of a number measured on that image is about the standard
+    deviation of its values on the ``n`` batch images over √n (to first order in the noise; ``n`` is
+    :attr:`~rigsim.preview.multiple.MultipleScattering.n_batches`, 4 by default: the error of that
+    standard error is itself ~40 %).  Nothing is traced again; at a small size each image costs the
+    analytic model's time alone (a few tenths of a second at 96×64).
+
+    Parameters
+    ----------
+    traced
+        The ``traced_out`` of a :func:`render_preview` of the same scene (light group → traced light).
+    traced_size
+        ``(width, height)`` of that render.
+    width, height, kwargs
+        Size of the batch images and the other :func:`render_preview` arguments (wavelengths, layers, …;
+        not ``multiple``, ``traced``, ``traced_out``).
+
+    Returns
+    -------
+    list of SpectralImage
+        One per batch; empty if no group kept its batches (no multiple scattering in this scene).
+    """
+    n = min((ms.n_batches for ms in traced.values()), default=0)
+    if n < 2:
+        return []
+    sx, sy = width / float(traced_size[0]), height / float(traced_size[1])
+    return [render_preview(scene, width=width, height=height, multiple=True,
+                           traced={g: ms.batch(k).scaled(sx, sy) for g, ms in traced.items()}, **kwargs)
+            for k in range(n)]
 
 
 # --- geometry ------------------------------------------------------------------------------

@@ -281,6 +281,11 @@ class MultipleScattering:
         its mean (from independent batches of photons).
     photons, vertices, seconds
         Work done.
+    batches
+        The same four arrays (``veil_cum``, ``veil_surf_cum``, ``irradiance``, ``fluence``) of each
+        independent batch of photons, with a leading batch axis (float32; their mean over the batches is
+        the arrays above), or None: what :meth:`batch` returns, for the noise the photons put into a
+        number measured on the image (:func:`rigsim.preview.model.render_photon_batches`).
     """
 
     veil_cum: np.ndarray
@@ -294,6 +299,29 @@ class MultipleScattering:
     photons: int
     vertices: int
     seconds: float
+    batches: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray] | None = None
+
+    @property
+    def n_batches(self) -> int:
+        """Independent batches of photons kept (0: none kept)."""
+        return 0 if self.batches is None else int(self.batches[0].shape[0])
+
+    def batch(self, k: int) -> "MultipleScattering":
+        """The class-B light of batch ``k`` of the photons alone (an estimate as unbiased as the mean,
+        with ``n_batches`` times its variance); an image made with each batch in turn scatters about the
+        image made with the mean as the photons' noise makes any number measured on it."""
+        if not 0 <= k < self.n_batches:
+            raise IndexError(f"batch {k} of {self.n_batches}")
+        v, vs, irr, flu = (np.asarray(a[k], np.float64) for a in self.batches)
+        return dataclasses.replace(self, veil_cum=v, veil_surf_cum=vs, irradiance=irr, fluence=flu,
+                                   relative_noise=(float("nan"), float("nan")),
+                                   photons=self.photons // self.n_batches, batches=None)
+
+    def scaled(self, sx: float, sy: float) -> "MultipleScattering":
+        """The same light for an image of the same view ``sx`` times as wide and ``sy`` times as tall in
+        pixels (the cells' pixel coordinates scaled; radiances and irradiances do not depend on the
+        pixel size)."""
+        return dataclasses.replace(self, cell_col=self.cell_col * float(sx), cell_row=self.cell_row * float(sy))
 
     def veil_at(self, col: np.ndarray, row: np.ndarray, range_m: np.ndarray, *, surfaces: bool = False) -> np.ndarray:
         """Veil radiance (…, B) at full-resolution pixels ``(col, row)`` up to their range (inf: all):
@@ -1055,11 +1083,14 @@ def _result(veil, veil_s, irr, flu, power, to_bands, edges, cols, rows, width, h
         mu = tot.mean()
         return float(tot.std(ddof=1) / np.sqrt(nb) / mu) if mu > 0 else 0.0
 
-    def cumulative(m):
-        return np.concatenate([np.zeros(m.shape[:2] + (1, m.shape[-1])), np.cumsum(m, axis=2)], axis=2)
+    def cumulative(m, axis=2):  # along the range bins (axis 2, or 3 with a batch axis), from 0
+        return np.concatenate([np.zeros_like(np.take(m, [0], axis=axis)), np.cumsum(m, axis=axis)], axis=axis)
 
     cell_col = (np.arange(cols) + 0.5) * width / cols
     cell_row = (np.arange(rows) + 0.5) * height / rows
+    batches = None
+    if nb >= 2:  # each batch's own arrays, for the photons' noise in what is measured on the image
+        batches = tuple(np.asarray(a, np.float32) for a in (cumulative(veil, 3), cumulative(veil_s, 3), irr, flu))
     return MultipleScattering(cumulative(mean_v), cumulative(mean_s), edges, cell_col, cell_row, mean_i,
                               flu.mean(axis=0), (rel_noise(veil + veil_s), rel_noise(irr)), int(photons), int(n_vert),
-                              time.perf_counter() - t0)
+                              time.perf_counter() - t0, batches)

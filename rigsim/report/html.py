@@ -62,11 +62,14 @@ def _is_extension(r: dict) -> bool:
     return r.get("extension") in (True, "True", 1.0)
 
 
-def _fmt_m(x, searched_to=None) -> str:
+def _fmt_m(x, searched_to=None, se=None) -> str:
+    """A range in m; with its standard error ``se`` (m) where one was measured."""
     if x is None or (isinstance(x, float) and np.isnan(x)):
         return "n/a"
     if np.isinf(x):
         return f"beyond {searched_to:.0f} m" if searched_to else "beyond the sweep"
+    if se is not None and np.isfinite(se) and se >= 0.05:
+        return f"{x:.1f} ± {se:.1f} m"
     return f"{x:.1f} m"
 
 
@@ -79,7 +82,7 @@ def _fmt_vis(r: dict) -> str:
         return (f"not found: the contrast levels off at {far:.1%} out to {end:.0f} m (a contrast that does not "
                 f"fall with distance is not the target's: the strobes' veil differs between the target and the "
                 f"water around it)")
-    txt = _fmt_m(v, end)
+    txt = _fmt_m(v, end, r.get("visibility_m_radiance_se"))
     if v is not None and sweep_max is not None and np.isfinite(v) and v > sweep_max:
         txt += " (found beyond the sweep by the fast engine)"
     return txt
@@ -295,15 +298,19 @@ def write_report(study_dir: str | Path) -> Path:
             wbar = 0.8 / max(1, len(labels))
             for i, lab in enumerate(labels):
                 rig, s = lab.split("/", 1)
-                vals, searched = [], []
+                vals, searched, ses = [], [], []
                 for w in waters:
                     m = [v for v in vis if v["water"] == w and v["rig"] == rig and v["sensor"] == s
                          and v["target"] == t]
                     vals.append(m[0]["visibility_m_radiance"] if m and m[0]["visibility_m_radiance"] is not None
                                 else np.nan)
                     searched.append(m[0].get("searched_to_m") or max(spec["distances_m"]) if m else np.nan)
-                vals = np.array(vals, float)
-                bars = ax.bar(x + i * wbar, np.where(np.isinf(vals), searched, vals), wbar, label=lab)
+                    se = m[0].get("visibility_m_radiance_se") if m else None
+                    ses.append(se if se is not None else np.nan)
+                vals, ses = np.array(vals, float), np.array(ses, float)
+                err = np.where(np.isfinite(vals) & np.isfinite(ses), ses, 0.0)
+                bars = ax.bar(x + i * wbar, np.where(np.isinf(vals), searched, vals), wbar, label=lab,
+                              yerr=err if err.any() else None, capsize=2)
                 for b, v in zip(bars, vals):
                     if np.isinf(v):
                         b.set_hatch("//")
@@ -317,7 +324,11 @@ def write_report(study_dir: str | Path) -> Path:
                    "<p>The dotted line is the sweep's largest distance.  Where a target was still visible there, "
                    "the study rendered it farther out with the fast engine (distance × 1.5 per step) until its "
                    "contrast fell below the threshold; a hatched bar means it was still visible at the farthest "
-                   "distance tried.</p>")
+                   "distance tried.  Error bars and ± are one standard error from the fast engine's photon noise "
+                   "(its multiply scattered light is traced with photons: the contrast of each independent batch "
+                   "of them, at the two distances the range is interpolated between); they leave out the fast "
+                   "engine's own error against Monte Carlo (the trust table) and the interpolation between "
+                   "distances.</p>")
     # ------------------------------------------------------------------ image grids
     for rig in rigs:
         for s in sensors:

@@ -104,6 +104,33 @@ def test_visibility_range_edges():
         M.visibility_range([2.0, 1.0], [0.5, 0.1])
 
 
+def test_visibility_range_se_is_the_scatter_of_ranges_from_noisy_contrasts():
+    """The first-order standard error against the spread of the ranges of 20 000 sweeps whose contrasts
+    carry Gaussian noise of the stated standard errors (3 % and 5 % of each: small enough for first order)."""
+    d = np.array([1.0, 2.0, 3.0, 4.5, 6.0])
+    c = 0.3 * np.exp(-0.6 * d)  # crosses 2 % at 4.51 m: between 4.5 and 6 m
+    se = c * np.array([0.03, 0.03, 0.03, 0.03, 0.05])
+    rng = np.random.default_rng(7)
+    ranges = np.array([M.visibility_range(d, c + se * rng.standard_normal(d.size)) for _ in range(20000)])
+    predicted = M.visibility_range_se(d, c, se)
+    assert predicted > 0
+    # the sample s.d. of 20 000 has 0.5 % noise; first order is good to a few % at these noise levels
+    assert ranges.std() == pytest.approx(predicted, rel=0.05)
+    # only the two bracketing contrasts count: noise elsewhere changes nothing
+    se2 = se.copy()
+    se2[:2] = 1e-1
+    assert M.visibility_range_se(d, c, se2) == pytest.approx(predicted, rel=1e-12)
+
+
+def test_visibility_range_se_is_nan_where_the_range_is_no_crossing_or_an_error_is_missing():
+    d = np.array([1.0, 2.0, 3.0])
+    assert np.isnan(M.visibility_range_se(d, [0.5, 0.4, 0.3], [0.01] * 3))  # never below: inf range
+    # the crossing lies between 1 and 2 m: a missing error at either makes it NaN, at 3 m it does not count
+    assert np.isnan(M.visibility_range_se(d, [0.5, 0.01, 0.005], [0.01, np.nan, 0.001]))
+    assert np.isnan(M.visibility_range_se(d, [0.5, 0.01, 0.005], [np.nan, 0.001, 0.001]))
+    assert M.visibility_range_se(d, [0.5, 0.01, 0.005], [0.0, 0.0, np.nan]) == 0.0
+
+
 def test_black_disk_range():
     assert M.black_disk_range_ZaneveldPegau2003(0.4) == pytest.approx(12.0)
 

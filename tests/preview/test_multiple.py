@@ -356,3 +356,44 @@ def test_the_kernel_in_the_water_keeps_the_shape_and_the_light_of_a_near_port_ve
     assert np.all(np.abs(light - 1.0) < 0.02), light
     assert np.all(np.abs(middle - 1.0) < 0.06), middle
     assert np.allclose(out[..., 1], 1.0), "a uniform veil stays uniform"
+
+
+def test_photon_batch_images_average_to_the_image_and_scatter_as_independent_seeds_do():
+    """:func:`render_photon_batches`: the image once with each batch of the multiple-scattering photons.
+    They average to the image made with all of them (the class-B light enters linearly), and the standard
+    error they give a region's mean (s.d. over the 4 batches / 2) is the scatter of that mean between
+    independent seeds: an F test of the seeds' variance (16 seeds) against the mean squared standard error
+    (16 × 3 degrees of freedom), 0.1 % on each side (F(15, 48) in [0.21, 3.2]; measured 1.6).  A standard
+    error half the true one (F ≈ 6) fails it; one twice too large (conservative) would pass at this size.
+    The region is the water around a black disk in Jerlov 3C at 3 m
+    (its class-B light is light-tailed; the disk's own veil and so the contrast are heavier-tailed: there
+    40 seeds gave 0.5–0.6 of the batches' variance, 10 seeds 0.2–0.3)."""
+    from rigsim.metrics.scene import photopic_luminance, target_masks
+    from rigsim.preview import render_photon_batches
+
+    rig = load_rig("rigs/twin-strobes-close-to-port.toml")
+    scene = build_scene(rig, "jerlov-3C", "black-disk", 3.0, size_m=1.0)
+    kw = dict(width=64, height=43, wavelengths_nm=WL, layers=("object_id",))
+
+    def ring(im):
+        m = target_masks(np.asarray(im.layers["object_id"]), im.meta.get("object_ids", {}), "black-disk")
+        return photopic_luminance(im.radiant_exposure(1.0), im.wavelength_nm, im.bandwidth_nm)[m["reference"]].mean()
+
+    means, se2 = [], []
+    for seed in range(16):
+        traced = {}
+        im = render_preview(scene, seed=seed, multiple=True, photons=20_000, traced_out=traced, **kw)
+        batches = render_photon_batches(scene, traced, traced_size=(64, 43), **kw)
+        assert len(batches) == 4
+        if seed == 0:
+            mean = np.mean([b.layers["flash"] for b in batches], axis=0)
+            scale = float(np.max(im.layers["flash"]))
+            assert np.max(np.abs(mean - im.layers["flash"])) <= 1e-5 * scale
+            assert np.max(np.abs(batches[0].layers["flash"] - batches[1].layers["flash"])) > 1e-3 * scale
+        v = np.array([ring(b) for b in batches])
+        means.append(ring(im))
+        se2.append(v.var(ddof=1) / v.size)
+    from scipy.stats import f as f_dist
+
+    f = np.var(means, ddof=1) / np.mean(se2)
+    assert f_dist.ppf(0.001, 15, 48) < f < f_dist.ppf(0.999, 15, 48), f

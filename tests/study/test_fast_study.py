@@ -121,6 +121,9 @@ def test_visibility_is_found_beyond_the_sweep(tmp_path):
     v = float(vis["visibility_m_radiance"])
     assert 2.0 < v <= dists[-1] and math.isfinite(v)
     assert float(vis["sweep_max_m"]) == 2.0 and float(vis["searched_to_m"]) == dists[-1]
+    # the range found by the fast engine carries its photons' noise (here 0.04 m: the clear water's class-B
+    # light is a small part of the disk's surround)
+    assert 0.0 < float(vis["visibility_m_radiance_se"]) < 0.05 * v
     # a second run replays the steps from the stored cases: nothing new, the same tables
     table = (out / "results.csv").read_text()
     n_cases = len(list((out / "cases").glob("*/result.json")))
@@ -131,6 +134,27 @@ def test_visibility_is_found_beyond_the_sweep(tmp_path):
 
     page = write_report(out).read_text()
     assert "found beyond the sweep by the fast engine" in page
+
+
+def test_the_visibility_range_carries_the_fast_engines_photon_noise(tmp_path):
+    """Jerlov 3C, strobes by the port, a black disk: its contrast falls below 2 % between 1.5 and 3 m.  The
+    multiply scattered light is traced with photons, so each case near the threshold gets the contrast's
+    standard error from the photon batches (rigsim.study.case.contrast_photon_noise), the visibility table
+    the range's (rigsim.metrics.visibility.visibility_range_se), and the report shows it."""
+    from rigsim.metrics.visibility import visibility_range_se
+    from rigsim.report.html import write_report
+
+    p = fast_study(tmp_path, waters='["jerlov-3C"]', distances="[1.5, 3.0]", sweep_extra="extend_visibility = false")
+    out = run_study(load_study(p), tmp_path / "out", serial=True, progress=False)
+    rows = sorted(_rows(out / "results.csv"), key=lambda r: float(r["distance_m"]))
+    assert all(int(r["ms_photons"]) > 0 for r in rows)
+    c = np.array([float(r["contrast_radiance"]) for r in rows])
+    se = np.array([float(r["contrast_radiance_se"]) for r in rows])
+    assert c[0] >= 0.02 > c[1] and np.all(se > 0) and np.all(se < 0.5 * c), (c, se)
+    (vis,) = _rows(out / "visibility.csv")
+    v, v_se = float(vis["visibility_m_radiance"]), float(vis["visibility_m_radiance_se"])
+    assert 1.5 < v < 3.0 and v_se == pytest.approx(visibility_range_se([1.5, 3.0], c, se), rel=1e-9)
+    assert f"{v:.1f} ± {v_se:.1f} m" in write_report(out).read_text()
 
 
 def test_no_extension_when_asked_not_to(tmp_path):
