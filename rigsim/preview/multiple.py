@@ -748,8 +748,13 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
                 dep = ~dep
             nrm = n_hit[sv]
             nrm = np.where((_dot(nrm, d[sv]) > 0)[:, None], -nrm, nrm)  # the lit side
-            if irradiance_only:  # the side the camera sees
-                dep = _dot(nrm, pupil - x) > 0
+            seen = _dot(nrm, pupil - x) > 0  # the side the camera sees
+            if irradiance_only:
+                dep = seen
+            else:
+                # a flat piece's texture is the side the camera sees (a mesh's cells hold both sides): light
+                # on its back is not in the picture (until 2026-12-04 it was counted on the front)
+                dep &= seen | surf.is_mesh[k]
             if every or qss:
                 _splat_surface(veil_s, (bid[sv], li[sv]), x, k, nrm, F[sv], refl, surf, pupil, reach, edges,
                                c if every else kappa_cam, omega, cam, width, height, cols, rows, n_out)

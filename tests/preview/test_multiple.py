@@ -397,3 +397,32 @@ def test_photon_batch_images_average_to_the_image_and_scatter_as_independent_see
 
     f = np.var(means, ddof=1) / np.mean(se2)
     assert f_dist.ppf(0.001, 15, 48) < f < f_dist.ppf(0.999, 15, 48), f
+
+
+def test_a_flat_targets_texture_holds_the_light_on_the_side_the_camera_sees():
+    """A white disk at 1.5 m in Jerlov 3C with the strobes 1 m behind it, aimed away from the camera: its back
+    is lit, the side the camera sees only by light that turns round its rim.  The class-B irradiance the
+    fast engine shades that side with must be a small part of what the back gets — measured by the mirror
+    scene, the strobes 1 m in front of it aimed at the camera (the same light, now on the seen side).
+    Until 2026-12-04 a flat piece's texture held the light of both its sides: the seen side then read
+    41x the light traced onto it (``classes="irradiance"``), and a white disk lit from the camera's side
+    got 4–5 % more class-B light than it should (Jerlov 3C at 1.5 and 4 m, III at 3 m)."""
+    import dataclasses
+
+    from rigsim.preview.multiple import _cell_areas
+
+    scene = _scene("jerlov-3C", "white-disk", 1.5)
+
+    def lit(z, aim_z):
+        lights = tuple(dataclasses.replace(l, position_m=(x, 0.0, z), aim=(0.0, 0.0, aim_z))
+                       for l, x in zip(scene.lights, (-0.2, 0.2)))
+        return dataclasses.replace(scene, rig=dataclasses.replace(scene.rig, lights=lights))
+
+    flux = []
+    for sc in (lit(2.5, 1.0), lit(0.5, -1.0)):  # behind, aimed away; in front, aimed at the camera
+        surf = scene_surfaces(sc)
+        wl, kw = _tracer_inputs(sc)
+        ms = trace_multiple(sc, surf, list(sc.lights), wl, **kw, photons=40_000, seed=3)
+        area = _cell_areas(surf)  # (a disk's corner cells off it: inf, they get no light)
+        flux.append(float((ms.irradiance[..., 1] * np.where(np.isfinite(area), area, 0.0)).sum()))  # W/nm
+    assert flux[1] > 0 and flux[0] < 0.1 * flux[1], flux
