@@ -32,6 +32,10 @@ def region_mean(image: np.ndarray, mask: np.ndarray) -> np.ndarray:
 def contrast_michelson(target: np.ndarray, background: np.ndarray) -> np.ndarray:
     """Michelson contrast ``|L_t − L_b| / (L_t + L_b)`` of mean signals (per channel).
 
+    0 where both are 0; NaN where either is negative — a developed image's mean below its black level
+    is noise, and the ratio of two such means is not a contrast (a dark chart at 6 m in Jerlov 3C read
+    7.2 from means of ±0.001).
+
     Parameters
     ----------
     target, background
@@ -41,7 +45,8 @@ def contrast_michelson(target: np.ndarray, background: np.ndarray) -> np.ndarray
     t = np.asarray(target, float)
     b = np.asarray(background, float)
     s = t + b
-    return np.divide(np.abs(t - b), s, out=np.zeros(np.broadcast(t, b).shape), where=s > 0)
+    out = np.divide(np.abs(t - b), s, out=np.zeros(np.broadcast(t, b).shape), where=s > 0)
+    return np.where((t < 0) | (b < 0), np.nan, out)
 
 
 def contrast_weber(target: np.ndarray, background: np.ndarray) -> np.ndarray:

@@ -30,6 +30,7 @@ import csv
 import io
 import json
 import logging
+import math
 import time
 from collections.abc import Callable
 from dataclasses import replace
@@ -79,7 +80,7 @@ def _read_record(f: Path) -> dict | None:
 def _largest_contrast(rows: list[dict]) -> float:
     """The largest contrast (scene radiance or any sensor's image) of a case's rows (0 if none)."""
     vals = [r.get(k) for r in rows for k in ("contrast_radiance", "contrast_image")]
-    return max((v for v in vals if v is not None), default=0.0)
+    return max((v for v in vals if v is not None and math.isfinite(v)), default=0.0)
 
 
 def extension_cases(spec: StudySpec, out: Path) -> tuple[list[Case], list[Case]]:

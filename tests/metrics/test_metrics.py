@@ -12,6 +12,8 @@ def test_contrast_known_patches():
     assert M.contrast_weber(0.8, 0.2) == pytest.approx(3.0)
     assert M.contrast_weber(0.0, 0.5) == pytest.approx(-1.0)
     np.testing.assert_allclose(M.contrast_michelson([1, 2, 3], [1, 1, 1]), [0, 1 / 3, 0.5])
+    # a mean below the black level is noise: no contrast to measure (it read 7.2 from 0.0008 and -0.0006)
+    assert np.isnan(M.contrast_michelson(0.0008, -0.0006)) and M.contrast_michelson(0.0, 0.0) == 0.0
     img = np.zeros((20, 20, 3))
     img[5:10, 5:10] = [0.5, 0.3, 0.1]
     img[img.sum(-1) == 0] = [0.1, 0.1, 0.1]
