@@ -91,7 +91,13 @@ engine; fractions of Monte Carlo's veil):
 * the class-B light is itself Monte Carlo: in 9C at 1 m its region mean varies 7–10 % (coefficient of
   variation between seeds of 100 000 photons), 2–3 % of the blue veil, with an occasional seed far
   above (+19 % of the veil once in 24: a scattering vertex within 0.2 m of the port).  The
-  agreement check's standard error is the reference's alone.
+  agreement check's standard error is the reference's alone.  A study measures what this noise does
+  to its contrasts and visibility ranges (:attr:`MultipleScattering.batches`,
+  :func:`rigsim.preview.model.render_photon_batches`): where a chart is seen through a heavy veil it
+  dominates — the edge-lit ColorChecker of the demo in Jerlov 3C at 6 m has a white-against-black
+  contrast of 0.012 ± 0.007; with only the veil's batches varying its standard error was 0.007, with
+  only the targets' class-B irradiance 0.0025 (96×64, one seed): the veil in front of the two patches
+  (they lie in different cells of the grid), whose difference is the contrast.
 
 The agreement benchmark (``twin-strobes-45-wide``, 1 and 3 m, ``data/fast_engine/agreement.csv``;
 strobe rows re-published 2026-12-04 with the kernel's cap, against the same Monte Carlo renders):
