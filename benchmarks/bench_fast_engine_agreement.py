@@ -12,7 +12,8 @@ checked), so it is parallel on dask, shows progress and resumes: run it again wi
 
 Prints, per water: the worst deviation of each kind of region and per colour group, with its
 standard error and the tolerance (3 % clear water, 5 % elsewhere); then the worst cells overall
-and the count of cells beyond tolerance + the reference's 95 % half-width (Student's t · SE for the seeds).  Everything is in ``<out>/*/agreement.csv``.
+and the count of cells beyond tolerance + the difference's 95 % half-width (Student's t · SE for the seeds; the SE
+holds the reference's noise and the fast engine's own, from its photon batches).  Everything is in ``<out>/*/agreement.csv``.
 
     python benchmarks/bench_fast_engine_agreement.py                       # everything: hours on 2 cores
     python benchmarks/bench_fast_engine_agreement.py --quick               # 3 waters, 2 distances, 1 rig

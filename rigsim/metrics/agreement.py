@@ -6,7 +6,9 @@ region of the image — each ColorChecker patch, the disk, the open-water veil �
 group of bands (:data:`rigsim.spectrum.COLOUR_GROUPS_NM`), the fast engine's region mean of the
 radiant exposure (one flash plus 1 s of continuous light, :meth:`SpectralImage.radiant_exposure`)
 is compared with the mean of the Monte Carlo renders' region means; the reference's standard
-error is the spread of those means over √seeds.  The scene metrics the study reports
+error is the spread of those means over √seeds, the fast engine's the spread of its region mean over
+the images made with each batch of its multiple-scattering photons (where it traced any), and the
+difference's standard error is both together.  The scene metrics the study reports
 (``contrast_radiance``, ``backscatter_share``, :func:`rigsim.metrics.scene.scene_metrics`) are
 compared the same way (the contrast only where Monte Carlo's is at least :data:`MIN_CONTRAST`).
 
@@ -18,7 +20,7 @@ tens of percent between them without either being wrong.
 
 Tolerances: 3 % in clear water, 5 % elsewhere (the fast engine's design targets); a cell is
 ``agrees`` within its tolerance, ``within noise`` if the difference is inside the tolerance plus the
-reference's 95 % confidence half-width — ``t · SE`` with Student's t for the number of renders less
+difference's 95 % confidence half-width — ``t · SE`` with Student's t for the number of renders less
 one (Student 1908: the spread of 4 renders estimates their standard error with 3 degrees of freedom,
 t = 3.18; "2 SE" is an 86 % interval for 4 renders: a fast value just at the tolerance was called a
 disagreement in one check in seven) — else ``disagrees``.
@@ -148,13 +150,15 @@ class RegionDeviation:
     """One region × colour group: the fast engine's mean against Monte Carlo's.
 
     ``fast`` and ``reference`` are region means of the radiant exposure (J·m⁻²·sr⁻¹·nm⁻¹ averaged
-    over the group's bands); ``deviation`` = fast / reference − 1 and ``deviation_se`` the
-    reference's relative standard error, ``reference_se / reference`` (:func:`relative_se`), taken as
-    the whole noise of the difference: the analytic part of the fast engine has none, but its
-    multiply scattered light (:mod:`rigsim.preview.multiple`, in the waters that scatter widely) is a
-    Monte Carlo estimate whose noise is not in it — in Jerlov 9C at 1 m 2–3 % of the blue open-water
-    veil between seeds, rarely much more.  ``reference_tail`` is the largest render's region mean over
-    the median render's (module docstring, :data:`HEAVY_TAIL`; NaN if unknown).
+    over the group's bands); ``deviation`` = fast / reference − 1 and ``deviation_se`` its standard
+    error, ``hypot(reference_se, fast_se) / reference`` (:func:`relative_se`): the reference's noise and
+    the fast engine's.  The analytic part of the fast engine has none, but its multiply scattered light
+    (:mod:`rigsim.preview.multiple`, in the waters that scatter widely) is traced with photons:
+    ``fast_se`` is the spread of the region's mean over the images made with each batch of them
+    (:func:`rigsim.preview.render_photon_batches`) over √batches, 0 where none were traced or none given
+    (until 2026-12-04 it was left out: in Jerlov 9C at 1 m 2–3 % of the blue open-water veil between
+    seeds).  ``reference_tail`` is the largest render's region mean over the median render's (module
+    docstring, :data:`HEAVY_TAIL`; NaN if unknown).
     """
 
     region: str
@@ -164,6 +168,7 @@ class RegionDeviation:
     reference: float
     reference_se: float
     reference_tail: float = float("nan")
+    fast_se: float = 0.0
 
     @property
     def deviation(self) -> float:
@@ -171,7 +176,7 @@ class RegionDeviation:
 
     @property
     def deviation_se(self) -> float:
-        return relative_se(self.reference, self.reference_se)
+        return relative_se(self.reference, math.hypot(self.reference_se, self.fast_se))
 
     def record(self) -> dict:
         return {**asdict(self), "deviation": self.deviation, "deviation_se": self.deviation_se}
@@ -179,12 +184,14 @@ class RegionDeviation:
 
 @dataclass(frozen=True)
 class MetricDeviation:
-    """One scene metric (``contrast_radiance``, ``backscatter_share``): fast against Monte Carlo."""
+    """One scene metric (``contrast_radiance``, ``backscatter_share``): fast against Monte Carlo (``fast_se``
+    as :class:`RegionDeviation`'s)."""
 
     metric: str
     fast: float
     reference: float
     reference_se: float
+    fast_se: float = 0.0
 
     @property
     def deviation(self) -> float:
@@ -192,7 +199,7 @@ class MetricDeviation:
 
     @property
     def deviation_se(self) -> float:
-        return relative_se(self.reference, self.reference_se)
+        return relative_se(self.reference, math.hypot(self.reference_se, self.fast_se))
 
     def record(self) -> dict:
         return {**asdict(self), "deviation": self.deviation, "deviation_se": self.deviation_se}
@@ -219,7 +226,8 @@ def comparison_regions(object_id: np.ndarray, legend: dict[str, str], target_kin
     return out
 
 
-def compare_renders(fast, references: list, target_kind: str) -> tuple[list[RegionDeviation], list[MetricDeviation]]:
+def compare_renders(fast, references: list, target_kind: str, *,
+                    fast_batches: list | None = None) -> tuple[list[RegionDeviation], list[MetricDeviation]]:
     """Region and metric deviations of a fast-engine render from independent Monte Carlo renders.
 
     Parameters
@@ -231,17 +239,29 @@ def compare_renders(fast, references: list, target_kind: str) -> tuple[list[Regi
         Monte Carlo renders of the same scene, size and bands, independent seeds (at least two).
     target_kind
         The target's kind (which regions and contrast).
+    fast_batches
+        The fast image made with each batch of its multiple-scattering photons
+        (:func:`rigsim.preview.render_photon_batches`, same size; at least two): their spread is the
+        fast engine's noise (``fast_se``).  None or empty: the fast image is taken as noiseless.
     """
     if len(references) < 2:
         raise ValueError("the reference needs at least two independent Monte Carlo renders")
-    for ref in references:
+    fast_batches = list(fast_batches or [])
+    for ref in references + fast_batches:
         if ref.radiance.shape != fast.radiance.shape:
             raise ValueError(f"the renders differ in shape: {ref.radiance.shape} vs {fast.radiance.shape}")
+    nb = len(fast_batches)
+
+    def batch_se(values) -> float:  # standard error of the fast value from its batches' values
+        v = np.asarray(values, float)
+        return float(v.std(ddof=1) / math.sqrt(v.size)) if v.size >= 2 and np.all(np.isfinite(v)) else 0.0
+
     oid = np.asarray(fast.layers["object_id"])
     regions = comparison_regions(oid, fast.meta.get("object_ids", {}), target_kind)
     groups = colour_groups(fast.wavelength_nm)
     h_fast = fast.radiant_exposure(1.0)
     h_refs = [r.radiant_exposure(1.0) for r in references]
+    h_bats = [b.radiant_exposure(1.0) for b in fast_batches]
     n = len(references)
     out: list[RegionDeviation] = []
     for name, m in regions.items():
@@ -251,10 +271,12 @@ def compare_renders(fast, references: list, target_kind: str) -> tuple[list[Regi
             med = float(np.median(per))
             out.append(RegionDeviation(name, g, int(m.sum()), f, float(per.mean()),
                                        float(per.std(ddof=1) / math.sqrt(n)),
-                                       float(per.max() / med) if med > 0 else float("nan")))
+                                       float(per.max() / med) if med > 0 else float("nan"),
+                                       batch_se([h[m][:, idx].mean() for h in h_bats])))
     masks = target_masks(oid, fast.meta.get("object_ids", {}), target_kind)
     mf = scene_metrics(fast, target_kind, masks=masks)[0]
     mrefs = [scene_metrics(r, target_kind, masks=masks)[0] for r in references]
+    mbats = [scene_metrics(b, target_kind, masks=masks)[0] for b in fast_batches]
     metrics: list[MetricDeviation] = []
     for key in ("contrast_radiance", "backscatter_share"):
         vals = np.array([m.get(key, np.nan) for m in mrefs], float)
@@ -262,15 +284,18 @@ def compare_renders(fast, references: list, target_kind: str) -> tuple[list[Regi
             continue  # a contrast too small to see: its relative difference says nothing
         if key in mf and np.all(np.isfinite(vals)):
             metrics.append(MetricDeviation(key, float(mf[key]), float(vals.mean()),
-                                           float(vals.std(ddof=1) / math.sqrt(n))))
+                                           float(vals.std(ddof=1) / math.sqrt(n)),
+                                           batch_se([m.get(key, np.nan) for m in mbats])))
     if fast.meta.get("particles") and all("particle_id" in r.layers for r in references + [fast]):
         from rigsim.metrics.specks import speck_metrics, subject_mask  # marine snow: the specks' share of the light
 
         sf = speck_metrics(fast, subject_mask(masks, target_kind))["speck_share"]
         vals = np.array([speck_metrics(r, subject_mask(masks, target_kind))["speck_share"] for r in references])
+        sb = [speck_metrics(b, subject_mask(masks, target_kind))["speck_share"] for b in fast_batches
+              if "particle_id" in b.layers]
         if vals.mean() != 0:
             metrics.append(MetricDeviation("speck_share", float(sf), float(vals.mean()),
-                                           float(vals.std(ddof=1) / math.sqrt(n))))
+                                           float(vals.std(ddof=1) / math.sqrt(n)), batch_se(sb)))
     return out, metrics
 
 
@@ -282,7 +307,9 @@ class PublishedAgreement:
     ``worst_deviation`` is the largest fast / Monte Carlo − 1 over the water's checked regions and
     colour groups (``worst_where`` says which), ± ``worst_se``; ``cases`` checked cases at
     ``distances_m``; ``beyond`` of ``cells`` region values differed by more than the tolerance plus
-    the reference's confidence half-width (:func:`verdict`).
+    the reference's confidence half-width (:func:`verdict`; the table published 2026-12-04 was measured before
+    the fast engine's own photon noise entered the standard error — its ``worst_se`` and ``beyond`` are the
+    reference's alone, as :meth:`sentence` says).
     """
 
     lighting: str

@@ -420,10 +420,10 @@ def trust_sentences(agreement: list[dict], render: dict) -> list[str]:
            f"{w['water']} at {w['distance_m']:g} m)")
     if bad:
         bw = list(dict.fromkeys(r["water"] for r in bad))
-        txt += (f"; {len(bad)} region values disagree beyond the tolerance and the reference's noise, in "
+        txt += (f"; {len(bad)} region values disagree beyond the tolerance and the two engines' noise, in "
                 f"{', '.join(bw)} — read those waters' numbers with the table below in mind.")
     else:
-        txt += "; every region agrees within its tolerance (3 % clear water, 5 % elsewhere) or the reference's noise."
+        txt += "; every region agrees within its tolerance (3 % clear water, 5 % elsewhere) or the two engines' noise."
     return [txt]
 
 
@@ -473,13 +473,15 @@ def trust_section(d: Path, agreement: list[dict], spec: dict) -> list[str]:
            f"{int(first['width'])}×{int(first['height'])} pixels).  Each cell is the largest difference, fast / Monte "
            f"Carlo − 1, over the checked cases' regions (each chart patch, the disk, the open water away from the "
            f"target; edge pixels left out) and colour groups (blue &lt; 490 nm, green 490–580, red ≥ 580), ± the "
-           f"Monte Carlo reference's standard error; green: within the tolerance, yellow: within it plus the "
-           f"reference's 95 % confidence half-width ({t_text}), red: beyond.  Contrast and backscatter share are the scene metrics of the tables "
+           f"difference's standard error (the Monte Carlo reference's and the fast engine's own: its multiply "
+           f"scattered light is traced with photons, and each batch of them makes its own image); green: within "
+           f"the tolerance, yellow: within it plus the 95 % confidence half-width ({t_text}), red: beyond.  Contrast and backscatter share are the scene metrics of the tables "
            f"above.  Where one Monte Carlo render of a region — or of another region of the same target — is "
            f"{HEAVY_TAIL:g} or more times the median render, the cell says so: there the reference itself is not "
            f"converged (rare paths carry much of the light; renders that missed them read low with a small "
            f"spread, so its standard error understates its error).  Every value is in agreement.csv "
-           f"(monte_carlo_tail: the largest render over the median).</p>"
+           f"(monte_carlo_se, fast_se: the two standard errors; monte_carlo_tail: the largest render over the "
+           f"median).</p>"
            f"<table class='data'>{head}{''.join(trs)}</table>"]
     pics = []
     for case_dir in sorted((d / "checks").glob("*/check.json")):

@@ -189,14 +189,15 @@ def compute_check(spec: StudySpec, case: Case) -> dict:
     """The Monte Carlo check of one case: the fast engine and ``spec.check.seeds`` independent
     Monte Carlo renders at the check size (more, up to ``max_seeds``, where the first ones are too
     noisy: :class:`~rigsim.study.spec.CheckSettings`), compared region by region
-    (:mod:`rigsim.metrics.agreement`).
+    (:mod:`rigsim.metrics.agreement`), with the fast engine's own noise from the images of each batch of its
+    multiple-scattering photons (:func:`rigsim.preview.render_photon_batches`).
 
     Returns ``{"record": {...}, "files": {"fast.png": ..., "monte-carlo.png": ...}}``.
     """
     import time
 
-    from rigsim.metrics.agreement import compare_renders, tolerance_for
-    from rigsim.preview import render_preview
+    from rigsim.metrics.agreement import compare_renders, relative_se, tolerance_for
+    from rigsim.preview import render_photon_batches, render_preview
     from rigsim.render import render
 
     scene, water, target_kind = case_scene(spec, case)
@@ -204,8 +205,12 @@ def compute_check(spec: StudySpec, case: Case) -> dict:
     seed = spec.case_seed(case)
     t0 = time.perf_counter()
     layers = study_layers(water)
+    traced: dict = {}
     fast = render_preview(scene, width=ck.width, height=ck.height, wavelengths_nm=wl, layers=layers,
-                          multiple=spec.render.preview_multiple, seed=seed)
+                          multiple=spec.render.preview_multiple, seed=seed, traced_out=traced)
+    # the fast engine's own noise: the same image with each batch of its multiple-scattering photons
+    fast_batches = render_photon_batches(scene, traced, traced_size=(ck.width, ck.height), width=ck.width,
+                                         height=ck.height, wavelengths_nm=wl, layers=layers)
     t_fast = time.perf_counter() - t0
     t0 = time.perf_counter()
 
@@ -215,16 +220,17 @@ def compute_check(spec: StudySpec, case: Case) -> dict:
                       layers=("object_id", "backscatter") + tuple(k for k in layers if k.startswith("particle")))
 
     refs = [mc(i) for i in range(ck.seeds)]
-    regions, metrics = compare_renders(fast, refs, target_kind)
+    regions, metrics = compare_renders(fast, refs, target_kind, fast_batches=fast_batches)
     pilot = None
     if (ck.max_seeds or ck.seeds) > ck.seeds:  # two stages (CheckSettings): the pilot's noise sets the count
-        se = np.array([r.deviation_se for r in regions], float)
+        # (the reference's noise alone: more renders do not change the fast engine's)
+        se = np.array([relative_se(r.reference, r.reference_se) for r in regions], float)
         se = se[np.isfinite(se)]
         pilot = {"seeds": ck.seeds, "se_p90": float(np.percentile(se, 90)) if se.size else float("nan")}
         n = ck.renders_for(pilot["se_p90"])
         if n > len(refs):
             refs += [mc(i) for i in range(len(refs), n)]
-            regions, metrics = compare_renders(fast, refs, target_kind)
+            regions, metrics = compare_renders(fast, refs, target_kind, fast_batches=fast_batches)
     t_mc = time.perf_counter() - t0
     record = {"case_id": spec.case_id(case), "case": case.key(), "rig": case.rig_name, "water": case.water_name,
               "target": target_kind if target_kind != "mesh" else case.target, "distance_m": case.distance_m,

@@ -250,12 +250,14 @@ def agreement_rows(checks: list[dict]) -> list[dict]:
         for r in rec["regions"]:
             rows.append({**base, "quantity": "radiance", "region": r["region"], "group": r["group"],
                          "pixels": r["pixels"], "fast": r["fast"], "monte_carlo": r["reference"],
-                         "monte_carlo_se": r["reference_se"], "deviation": r["deviation"],
+                         "monte_carlo_se": r["reference_se"], "fast_se": r.get("fast_se", 0.0),
+                         "deviation": r["deviation"],
                          "deviation_se": r["deviation_se"], "monte_carlo_tail": r.get("reference_tail"),
                          "verdict": verdict(r["deviation"], r["deviation_se"], rec["tolerance"], rec.get("seeds"))})
         for m in rec["metrics"]:
             rows.append({**base, "quantity": m["metric"], "region": "target", "group": "luminance", "pixels": None,
                          "fast": m["fast"], "monte_carlo": m["reference"], "monte_carlo_se": m["reference_se"],
+                         "fast_se": m.get("fast_se", 0.0),
                          "deviation": m["deviation"], "deviation_se": m["deviation_se"],
                          "verdict": verdict(m["deviation"], m["deviation_se"], rec["tolerance"], rec.get("seeds"))})
     return rows

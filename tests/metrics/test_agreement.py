@@ -76,6 +76,38 @@ def test_a_reference_with_one_render_far_above_the_rest_is_called_heavy_tailed()
     assert not heavy_tailed(None) and not heavy_tailed("") and not heavy_tailed(float("nan"))
 
 
+def test_the_fast_engines_photon_noise_enters_the_differences_standard_error():
+    """With the fast image's batch images (one per batch of its multiple-scattering photons) the fast value's
+    standard error is their spread over √batches, and the difference's is both engines' together: a fast
+    value 12 % below a reference of ±0.8 % disagrees alone (12 % > 5 % + 3.18 × 0.8 %), and is within noise
+    once the fast engine's own ±2.4 % is counted (12 % ≤ 5 % + 3.18 × 2.6 %)."""
+    from rigsim.metrics.agreement import compare_renders
+    from rigsim.spectral_image import SpectralImage
+
+    wl = np.array([450.0, 550.0, 650.0])
+
+    def img(level):
+        return SpectralImage(radiance=np.full((30, 40, 3), level, np.float32), wavelength_nm=wl,
+                             bandwidth_nm=np.full(3, 100.0), layers={"object_id": np.zeros((30, 40), np.int32)})
+
+    refs = [img(1.0 + d) for d in (-0.02, 0.0, 0.02, 0.0)]  # mean 1, SE 0.0082
+    fast = img(0.88)
+    batches = [img(0.88 + d) for d in (-0.06, 0.0, 0.06, 0.0)]  # mean 0.88, SE 0.0245
+    alone = compare_renders(fast, refs, "colorchecker")[0][0]
+    both = compare_renders(fast, refs, "colorchecker", fast_batches=batches)[0][0]
+    se_ref, se_fast = np.std([-0.02, 0, 0.02, 0], ddof=1) / 2, np.std([-0.06, 0, 0.06, 0], ddof=1) / 2
+    assert alone.fast_se == 0.0 and alone.deviation_se == pytest.approx(se_ref, rel=1e-5)
+    assert both.fast_se == pytest.approx(se_fast, rel=1e-5)
+    assert both.deviation_se == pytest.approx(np.hypot(se_ref, se_fast), rel=1e-5)
+    assert verdict(alone.deviation, alone.deviation_se, 0.05, 4) == "disagrees"
+    assert verdict(both.deviation, both.deviation_se, 0.05, 4) == "within noise"
+    assert both.record()["fast_se"] == both.fast_se
+    with pytest.raises(ValueError, match="differ in shape"):
+        compare_renders(fast, refs, "colorchecker", fast_batches=[SpectralImage(
+            radiance=np.ones((3, 4, 3), np.float32), wavelength_nm=wl, bandwidth_nm=np.full(3, 100.0),
+            layers={"object_id": np.zeros((3, 4), np.int32)})])
+
+
 def test_a_case_is_heavy_tailed_on_its_target_if_any_of_its_target_regions_is():
     """A patch whose renders all missed the rare paths reads low with a small tail; its case is flagged by
     the largest tail among the target's regions (the open water and scene metrics do not count)."""

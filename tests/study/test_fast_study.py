@@ -184,6 +184,11 @@ def test_a_fast_study_checks_itself_against_monte_carlo(tmp_path):
     for r in rows:
         assert np.isfinite(float(r["deviation"])) and float(r["monte_carlo_se"]) >= 0
         assert r["verdict"] in ("agrees", "within noise", "disagrees")
+        # the difference's standard error holds both engines' noise (the fast engine's from its photon batches)
+        ref = abs(float(r["monte_carlo"]))
+        assert float(r["deviation_se"]) == pytest.approx(
+            math.hypot(float(r["monte_carlo_se"]), float(r["fast_se"])) / ref, rel=1e-6)
+    assert any(float(r["fast_se"]) > 0 for r in rows if r["region"] == "open water")  # Jerlov 3C: traced
     veil = [float(r["deviation"]) for r in rows if r["region"] == "open water"]
     assert max(abs(v) for v in veil) < 0.15, veil
     (check_dir,) = (out / "checks").iterdir()
