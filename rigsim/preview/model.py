@@ -278,7 +278,7 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
         Threads of the per-pixel passes and of the forward blur (None:
         :func:`~rigsim.preview.tiles.default_threads`, the cores this process may use; the image does not depend on it).
     traced, traced_out
-        The multiply scattered light of a light group (``"flash"``, ``"continuous"``) already traced for
+        The multiply scattered light of a light group (``"strobe"``, ``"continuous"``) already traced for
         this scene and image size (:class:`~rigsim.preview.multiple.MultipleScattering`), used instead of
         tracing it again (``traced``); a dict that receives the groups' traced light (``traced_out``):
         :func:`render_photon_batches` makes an image with each batch of the photons from them.
