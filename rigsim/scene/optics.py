@@ -261,12 +261,13 @@ def pixel_rays(camera: Camera, width: int, height: int, *, n_outside: float,
     return o, d, col, row
 
 
-def cell_solid_angles(camera: Camera, cols: int, rows: int, *, n_outside: float) -> np.ndarray:
+def cell_solid_angles(camera: Camera, cols: int, rows: int, *, n_outside: float, pad_cells: int = 0) -> np.ndarray:
     """(rows, cols) solid angle (sr) outside the port of each cell of a ``cols × rows`` grid over the film
     (``cols, rows = width, height``: the pixels), from the chief rays through the cells' corners (each cell
-    two spherical triangles, Van Oosterom & Strackee 1983)."""
-    ce = np.linspace(0.0, 1.0, cols + 1)
-    re = np.linspace(0.0, 1.0, rows + 1)
+    two spherical triangles, Van Oosterom & Strackee 1983).  ``pad_cells``: the grid goes on that many
+    cells beyond each side of the film, (rows + 2 pad, cols + 2 pad)."""
+    ce = np.linspace(-pad_cells / cols, 1.0 + pad_cells / cols, cols + 2 * pad_cells + 1)
+    re = np.linspace(-pad_cells / rows, 1.0 + pad_cells / rows, rows + 2 * pad_cells + 1)
     PX, PY = np.meshgrid(ce, re)
     _, d = camera_rays(camera, PX, PY, n_outside=n_outside)
 

@@ -358,6 +358,66 @@ def test_the_kernel_in_the_water_keeps_the_shape_and_the_light_of_a_near_port_ve
     assert np.allclose(out[..., 1], 1.0), "a uniform veil stays uniform"
 
 
+def test_the_kernel_sees_the_light_beyond_the_image_edges():
+    """The class-B grid goes :data:`~rigsim.preview.multiple.GRID_PAD` cells beyond the image's sides, so
+    the kernel in the water averages the outer cells with the light really beyond them, not with copies
+    of themselves.  A veil that rises towards the sides as the strobes' beams make it (e^{3|x|}, x the
+    film position from the centre, -0.5 to 0.5: 4.5 x brighter at the edges than in the middle; in
+    the first range bin from the port, where the kernel is widest) keeps its outer columns within 5 % through
+    the kernel (measured 0.96); with the image's cells alone (``mode="nearest"`` beyond them) they fell
+    to 0.88.  A linear ramp (1.5 to 2.5 across the image) keeps its outer columns within 2 % (1.7 %;
+    3.0 % unpadded), a uniform veil stays uniform, and the tracer records the light of water seen just
+    outside the image (the padded cells are not empty)."""
+    from rigsim.preview.multiple import GRID_PAD, N_RANGE_BINS, _Cells, _smooth_in_water
+    from rigsim.scene.optics import cell_solid_angles, outside_index, port_reach_m
+
+    scene = _scene("jerlov-9C", "colorchecker", 1.0)  # a 16 mm lens behind a dome: the edge cells 0.3 x the middle's
+    cols, rows, n_out = 16, 11, outside_index(scene)
+    edges = np.geomspace(port_reach_m(scene.camera), 30.0, N_RANGE_BINS + 1)
+
+    def outer_columns(profile, pad):
+        om = cell_solid_angles(scene.camera, cols, rows, n_outside=n_out, pad_cells=pad)
+        cells = _Cells(scene.camera, 96, 64, cols, rows, pad, n_out, om)
+        x = (np.arange(cols + 2 * pad) - pad + 0.5) / cols - 0.5
+        veil = np.broadcast_to(profile(x)[None, :, None, None], (rows + 2 * pad, cols + 2 * pad, N_RANGE_BINS, 2))
+        veil = np.array(veil)[None, None]
+        veil[..., 1] = 1.0
+        cell = float(np.sqrt(np.median(cells.crop(om[..., None, None])))) if pad else None
+        out = cells.crop(_smooth_in_water(veil, edges, om, cell))[0, 0]
+        ref = cells.crop(veil)[0, 0]
+        assert np.allclose(out[..., 1], 1.0), "a uniform veil stays uniform"
+        # the first range bin (the port's, where the kernel is widest)
+        return np.array([out[:, j, 0, 0].mean() / ref[:, j, 0, 0].mean() for j in (0, cols - 1)])
+
+    rising = outer_columns(lambda x: np.exp(3 * np.abs(x)), GRID_PAD)
+    ramp = outer_columns(lambda x: 2.0 + x, GRID_PAD)
+    assert np.all(np.abs(rising - 1) < 0.05), rising
+    assert np.all(np.abs(ramp - 1) < 0.02), ramp
+    assert np.all(outer_columns(lambda x: np.exp(3 * np.abs(x)), 0) < 0.9), "the unpadded kernel's loss (the check can fail)"
+
+    scene = _scene("jerlov-9C", "colorchecker", 1.0)
+    wl, kw = _tracer_inputs(scene, photons=4_000, seed=3)
+    kw.update(width=96, height=64)
+    import rigsim.preview.multiple as multiple
+
+    seen = []
+    real = multiple._smooth_in_water
+
+    def spy(veil, *args):  # the padded veil as the tracer hands it to the kernel
+        seen.append(veil.copy())
+        return real(veil, *args)
+
+    multiple._smooth_in_water = spy
+    try:
+        trace_multiple(scene, scene_surfaces(scene), list(scene.lights), wl, **kw)
+    finally:
+        multiple._smooth_in_water = real
+    veil = seen[0].sum(axis=(0, 1, 4, 5))  # (rows + 2 pad, cols + 2 pad)
+    p = GRID_PAD
+    assert veil.shape == (rows + 2 * p, cols + 2 * p)
+    assert veil[p:-p, :p].sum() > 0 and veil[p:-p, -p:].sum() > 0, "light beyond the image's sides is recorded"
+
+
 def test_photon_batch_images_average_to_the_image_and_scatter_as_independent_seeds_do():
     """:func:`render_photon_batches`: the image once with each batch of the multiple-scattering photons.
     They average to the image made with all of them (the class-B light enters linearly), and the standard
