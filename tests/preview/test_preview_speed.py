@@ -111,10 +111,12 @@ def test_layers_are_those_of_the_straightforward_model(name, monkeypatch):
     """Each layer of the fast engine within 1e-4 of the reference, in tiles of a few rows (many tiles)."""
     scene, kw = _case(name)
     monkeypatch.setattr(preview_tiles, "TILE_SAMPLES", 200)
-    # two refinements came after the reference was frozen, each checked against Monte Carlo in
-    # tests/preview/test_daylight_bands.py: daylight sub-bands, the veil of every sample of a pixel
+    # three refinements came after the reference was frozen, each checked against Monte Carlo: daylight
+    # sub-bands, the veil of every sample of a pixel (tests/preview/test_daylight_bands.py), the veil from
+    # behind a target (tests/preview/test_preview_vs_render.py)
     monkeypatch.setattr(preview_model, "DAYLIGHT_MAX_SUB", 1)
     monkeypatch.setattr(preview_model, "SAMPLE_VEILS", False)
+    monkeypatch.setattr(preview_model, "VEIL_BEHIND", False)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the reference's expm1 overflows in thick water; aspect warnings
         ref = _all_layers(reference_preview(scene, **kw))

@@ -82,3 +82,32 @@ def test_geometry_layers_identical_to_the_renderer():
     for k in ref.layers:
         assert prev.layers[k].dtype == ref.layers[k].dtype and prev.layers[k].shape == ref.layers[k].shape
     assert prev.meta["fov_water_x_deg"] == pytest.approx(ref.meta["fov_water_x_deg"])
+
+
+def test_the_veil_from_behind_a_target_reaches_its_pixels_through_the_camera_leg(monkeypatch):
+    """Small-angle scattering on the way to the camera brings part of the veil from the water behind a target
+    into the target's pixels (:meth:`rigsim.preview.model._Group._behind`).  The demo's edge-lit black disk
+    in Jerlov 3C at 1 m (0.4 of the field wide, 450 nm, bF r = 1.3): the veil in front of the disk (the
+    ``backscatter`` layer, the disk's interior, 48 x 32) against 16 Monte Carlo renders of 64 paths per pixel:
+    within 3 % + 3 standard errors (measured +1.5 % ± 0.75 %); without the term the fast engine's is more
+    than 3 standard errors low (−3.3 %; at 96 x 64 0.3945 of the disk's radiance against Monte Carlo's
+    0.427 ± 0.003, with it 0.418)."""
+    import rigsim.preview.model as preview_model
+    from rigsim.config.rig import load_rig
+    from rigsim.metrics.agreement import comparison_regions
+    from rigsim.scene.build import build_scene
+    from rigsim.scene.optics import field_width_m
+
+    rig = load_rig("rigs/twin-strobes-edge-lighting.toml")
+    scene = build_scene(rig, preset("jerlov-3C"), "black-disk", 1.0, size_m=0.4 * field_width_m(rig.camera, 1.0))
+    kw = dict(width=48, height=32, wavelengths_nm=[450.0], bandwidth_nm=10.0)
+    fast = render_preview(scene, split=True, seed=1, layers=("object_id",), **kw)
+    disk = comparison_regions(np.asarray(fast.layers["object_id"]), fast.meta.get("object_ids", {}), "black-disk")["disk"]
+    refs = np.array([render(scene, spp=64, seed=101 + 7919 * i, layers=("object_id", "backscatter"), **kw)
+                     .layers["flash_backscatter"][disk].mean() for i in range(16)])
+    mean, se = refs.mean(), refs.std(ddof=1) / np.sqrt(len(refs))
+    with_it = fast.layers["flash_backscatter"][disk].mean() / mean - 1
+    monkeypatch.setattr(preview_model, "VEIL_BEHIND", False)
+    without = render_preview(scene, split=True, seed=1, layers=("object_id",), **kw).layers["flash_backscatter"][disk].mean() / mean - 1
+    assert abs(with_it) < 0.03 + 3 * se / mean, (with_it, se / mean)
+    assert without < -3 * se / mean, (without, se / mean)
