@@ -934,12 +934,13 @@ class _Group:
             run(pmap, blur, enumerate(range(b0, b1)))
             run(pmap, add, [(i, b0, b1) for i in range(len(v.tiles))])
 
-    def _behind(self, y0: int, y1: int, veil_here: np.ndarray):
+    def _behind(self, y0: int, y1: int):
         """The veil from behind the tile's targets that small-angle scattering on the camera leg brings into
-        their pixels, before its blur: ``(flat pixel index in the tile, (N, B) s·V_b)``, ``V_b`` the veil of
-        the water beyond the pixel's range (what the target blocks: the veil of the whole line of sight less
-        ``veil_here``, the veil in front of the target), ``s = 1 − e^{−bF r}`` the share of it scattered by
-        small angles over the range ``r`` (None: no target in the tile).
+        their pixels, before its blur: ``(flat pixel index in the tile, (N, B) s·V_b)``, ``V_b`` the lights'
+        veil of the water beyond the pixel's range (what the target blocks: the veil of the whole line of
+        sight less the veil in front of the target), ``s = 1 − e^{−bF r}`` the share of it scattered by small
+        angles over the range ``r`` (None: no target in the tile).  The daylight's path radiance is not in
+        ``V_b``: it is Duntley's, seen through ``e^{−c s}`` without a halo, as the renderer's.
 
         The quasi-single camera leg ``e^{−(c − bF) s}`` keeps the light scattered by small angles on the way
         back where it was: right for a veil that is smooth across the image, not at a target's silhouette,
@@ -959,11 +960,13 @@ class _Group:
         if not pix.size:
             return None
         W = v.width
+        cols, rows = v.cols[pix % W], v.rows[y0 + pix // W]
         everything = np.zeros((pix.size, self.B), np.float32)
         inf = np.full(pix.size, np.inf)
-        self._veil(v.cols[pix % W], v.rows[y0 + pix // W], v.oy_c[y0:y1].reshape(-1)[pix],
-                   v.d_c[y0:y1].reshape(-1, 3)[pix], inf, inf, everything)
-        vb = np.maximum(everything - veil_here.reshape(-1, self.B)[pix], 0.0)
+        self._lamps_veil(cols, rows, inf, inf, everything)
+        here = np.zeros_like(everything)
+        self._lamps_veil(cols, rows, v.t_c[y0:y1].reshape(-1)[pix], r[pix], here)
+        vb = np.maximum(everything - here, 0.0)
         s = -np.expm1(-np.outer(r[pix], self.water.b * self.water.F))
         return pix, (s * vb).astype(np.float32)
 
@@ -984,7 +987,7 @@ class _Group:
         else:
             self._backscatter(y0, y1, full, tile=i)
         if self.behind is not None:
-            got = self._behind(y0, y1, full)
+            got = self._behind(y0, y1)
             if got is not None:
                 pix, val = got
                 full.reshape(-1, B)[pix] += val
@@ -1135,13 +1138,17 @@ class _Group:
         """``out`` += the veil along lines of sight at image positions (cols, rows) (origin heights ``oy``,
         directions ``d``) up to ``t_port`` from the port (``range_m`` from the pupil; inf: all of it): the
         lights' backscatter, the multiply scattered veil and the daylight's path radiance."""
+        self._lamps_veil(cols, rows, t_port, range_m, out)
+        if self.day is not None:
+            out += self.day.path_radiance(oy, d, t_port)
+
+    def _lamps_veil(self, cols, rows, t_port, range_m, out) -> None:
+        """``out`` += the lights' part of :meth:`_veil` (their backscatter and multiply scattered veil)."""
         if self.grid is not None:
             cum, shape, gcol, grow, s = self.grid
             interpolate_cumulative(cum, shape, gcol, grow, s, cols, rows, t_port, out=out)
         if self.ms is not None:
             out += self.ms.veil_at(cols, rows, range_m).astype(out.dtype)
-        if self.day is not None:
-            out += self.day.path_radiance(oy, d, t_port)
 
 
 def _times_expm1(v: np.ndarray, x: np.ndarray) -> np.ndarray:

@@ -111,3 +111,29 @@ def test_the_veil_from_behind_a_target_reaches_its_pixels_through_the_camera_leg
     without = render_preview(scene, split=True, seed=1, layers=("object_id",), **kw).layers["flash_backscatter"][disk].mean() / mean - 1
     assert abs(with_it) < 0.03 + 3 * se / mean, (with_it, se / mean)
     assert without < -3 * se / mean, (without, se / mean)
+
+
+def test_the_daylight_path_radiance_is_not_blurred_in_from_behind_a_target(monkeypatch):
+    """The daylight's path radiance is Duntley's, seen without a halo (as the renderer's), so the veil from
+    behind a target that the camera leg brings into its pixels is the lights' alone: with video lights and
+    daylight it changes the image exactly as with the video lights alone (and it does change it)."""
+    import rigsim.preview.model as preview_model
+    from rigsim.config.rig import load_rig
+    from rigsim.scene.build import build_scene
+    from rigsim.scene.types import Daylight
+
+    rig = load_rig("rigs/video-lights-pair.toml")
+    kw = dict(width=40, height=28, wavelengths_nm=[450.0, 550.0], bandwidth_nm=10.0, split=True, layers=("object_id",))
+
+    def effect(daylight):
+        scene = build_scene(rig, preset("jerlov-3C"), "black-disk", 1.5, size_m=0.6, daylight=daylight)
+        on = render_preview(scene, **kw).radiance
+        monkeypatch.setattr(preview_model, "VEIL_BEHIND", False)
+        off = render_preview(scene, **kw).radiance
+        monkeypatch.setattr(preview_model, "VEIL_BEHIND", True)
+        return on - off, on
+
+    alone, img = effect(None)
+    with_day, _ = effect(Daylight(depth_m=5.0))
+    assert np.abs(alone).max() > 1e-3 * img.max()
+    np.testing.assert_allclose(with_day, alone, rtol=0, atol=0.01 * np.abs(alone).max())  # float32 rounding: 5e-4
