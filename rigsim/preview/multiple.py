@@ -423,6 +423,13 @@ class _Cells:
                   & (ir < self.rows + 2 * self.pad))
         return inside, ir[inside].astype(np.int64), ic[inside].astype(np.int64)
 
+    @property
+    def cell_rad(self) -> float:
+        """Angular size (rad) of a cell of the image: the square root of the median solid angle of its own cells."""
+        p = self.pad
+        own = self.omega[p:p + self.rows, p:p + self.cols]
+        return float(np.sqrt(np.median(own)))
+
     def crop(self, a: np.ndarray) -> np.ndarray:
         """The image's own cells of ``a`` (…, rows + 2 pad, cols + 2 pad, bins, bands)."""
         p = self.pad
@@ -843,8 +850,7 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
     acc.flush()
     if classes == "B":
         flu /= vol[None, None, :, :, :, None]
-        cell_rad = float(np.sqrt(np.median(cells.crop(omega[..., None, None])))) if pad else None  # the image's
-        veil, veil_s, flu = (_smooth_in_water(a, edges, omega, cell_rad) for a in (veil, veil_s, flu))
+        veil, veil_s, flu = (_smooth_in_water(a, edges, omega, cells.cell_rad) for a in (veil, veil_s, flu))
     veil, veil_s, flu = (cells.crop(a) for a in (veil, veil_s, flu))
     return _result(veil, veil_s, irr, flu, power, to_bands, edges, cols, rows, width, height, photons, n_vert, t0)
 

@@ -382,8 +382,7 @@ def test_the_kernel_sees_the_light_beyond_the_image_edges():
         veil = np.broadcast_to(profile(x)[None, :, None, None], (rows + 2 * pad, cols + 2 * pad, N_RANGE_BINS, 2))
         veil = np.array(veil)[None, None]
         veil[..., 1] = 1.0
-        cell = float(np.sqrt(np.median(cells.crop(om[..., None, None])))) if pad else None
-        out = cells.crop(_smooth_in_water(veil, edges, om, cell))[0, 0]
+        out = cells.crop(_smooth_in_water(veil, edges, om, cells.cell_rad))[0, 0]
         ref = cells.crop(veil)[0, 0]
         assert np.allclose(out[..., 1], 1.0), "a uniform veil stays uniform"
         # the first range bin (the port's, where the kernel is widest)
