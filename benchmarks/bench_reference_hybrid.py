@@ -37,7 +37,11 @@ Status (2026-12-03): a measuring tool, not yet the study's check: its own noise 
 tracer's photon noise is 1.5 % over the whole chart at 400 000 photons (44 s), so ~8 % per patch; per patch
 and band group at 1 % it would need ~10⁸ photons of this numpy tracer.  In coastal water at 1 m, where
 Monte Carlo is good (±0.1–5 %), hybrid / Monte Carlo − 1 over the five patches was −15…+6 % (400 000
-photons, 2 × 2 emitters per piece): that noise.  Jerlov III, colorchecker at 3 m, ``twin-strobes-45-wide``:
+photons, 2 × 2 emitters per piece): that noise.  Since 2026-12-04 the light tracer also sends a flight from every scattering vertex
+and light to the chart, combined with its hits by the balance heuristic (``surface_nee``,
+:class:`rigsim.preview.multiple._SurfaceNEE`): per patch 3–7x less noise in coastal water (the direct light),
+~1.5–2x in Jerlov III at 3 m and 9C at 1 m (there the light on a patch is forward-scattered light the hits
+carry), for 1.5x the time — not enough to make it the check in those waters.  Jerlov III, colorchecker at 3 m, ``twin-strobes-45-wide``:
 fast / hybrid − 1 over the same patches −3…+16 % (400 000 photons) and −3…+7 % (800 000, another seed),
 while fast / Monte Carlo (2–4 renders of 32 spp) read −28…+56 %.  What it would take to be the check: the
 tracer on Dr.Jit (or far fewer bands per photon) and the emitters sampled by power in the camera pass.
