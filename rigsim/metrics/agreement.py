@@ -361,9 +361,8 @@ class PublishedAgreement:
     ``worst_deviation`` is the largest fast / Monte Carlo − 1 over the water's checked regions and
     colour groups (``worst_where`` says which), ± ``worst_se``; ``cases`` checked cases at
     ``distances_m``; ``beyond`` of ``cells`` region values differed by more than the tolerance plus
-    the reference's confidence half-width (:func:`verdict`; the table published 2026-12-04 was measured before
-    the fast engine's own photon noise entered the standard error — its ``worst_se`` and ``beyond`` are the
-    reference's alone, as :meth:`sentence` says).
+    the difference's confidence half-width (:func:`verdict`: the reference's noise and, since the table of
+    2026-12-04 evening, the fast engine's own photon noise; the tables before counted the reference's alone).
     """
 
     lighting: str

@@ -100,15 +100,14 @@ engine; fractions of Monte Carlo's veil):
   (they lie in different cells of the grid), whose difference is the contrast.
 
 The agreement benchmark (``twin-strobes-45-wide``, 1 and 3 m, ``data/fast_engine/agreement.csv``;
-strobe rows re-published 2026-12-04 with the kernel's cap, against the same Monte Carlo renders):
-35 of 7 776 radiance cells beyond tolerance + t·SE (56 before the cap), 15 of them in Jerlov 9C, 8 in
-III, 4 in 7C, 4 in 5C, 1 in 3C (strobes) and 3 in Jerlov I (daylight at 15 m) — the open water of 9C
-at 1 m (−6.6 ± 0.4 %, blue; −9.8 % before) and 7C at 3 m (−5.9 ± 0.9 %; −8.3 %), and chart patches
-of high-albedo water, where Monte Carlo's own chart patches are heavy-tailed (Jerlov III at 3 m: the
-light the chart reflects, per pixel and render, reaches 100–450× its mean at 32 paths per pixel).
-Re-run 2026-12-04 (the strobe cases of III, 3C, 5C, 7C, 9C, same renders) with the references' tails
-(:func:`rigsim.metrics.agreement.target_tails`): 34 of those 35 cells are on a target whose reference has
-a patch with one render 3.3–57× the median render; the 35th is 9C's open water.  Rendered 48–64 times
+re-published 2026-12-04 evening against the same Monte Carlo renders, with the grid's padding, the veil
+from behind a target and the fast engine's photon noise in the standard error): 31 of 7 776 radiance cells
+beyond tolerance + t·SE (35 in the table before), 13 of them in Jerlov 9C, 6 in III, 4 in 7C, 3 in 5C,
+2 in 3C (strobes) and 3 in Jerlov I (daylight at 15 m: red patches, red band, +8 … +11 ± 2–4 %) — the open
+water of 9C at 1 m around a black disk (−7.0 ± 0.7 %, blue) and 27 chart patches, every one of them
+brighter in the fast engine (+10 … +37 %) and on a target whose Monte Carlo reference has a patch with
+one render 4.5–57× the median render (:func:`rigsim.metrics.agreement.target_tails`).  In the table before,
+34 of its 35 cells were on such a target; the 35th was 9C's open water.  Rendered 48–64 times
 (``benchmarks/bench_reference_convergence.py``) most of them fall within the noise — III's white patch at
 3 m from +23 % to −5 ± 12 % (blue), 9C's at 1 m from +30 % to +6 ± 11 % — while a few stay above, light-tailed:
 9C's red patch at 1 m +16 ± 4 % (blue), III's neutral 8 at 3 m +8 ± 4 %.
