@@ -35,27 +35,27 @@ but not its approximations: no δ-truncation, no class split, no spectral nodes,
 
 Status (2026-12-03): a measuring tool, not yet the study's check: its own noise is too large.  The light
 tracer's photon noise is 1.5 % over the whole chart at 400 000 photons (44 s), so ~8 % per patch; per patch
-and band group at 1 % it would need ~10⁸ photons of this numpy tracer.  In coastal water at 1 m, where
-Monte Carlo is good (±0.1–5 %), hybrid / Monte Carlo − 1 over the five patches was −15…+6 % (400 000
-photons, 2 × 2 emitters per piece): that noise.  Since 2026-12-04 the light tracer also sends a flight from every scattering vertex
-and light to the chart, combined with its hits by the balance heuristic (``surface_nee``,
+and band group at 1 % it would need ~10⁸ photons of this numpy tracer.  (Measured then, with the body's
+emitters too dim — below: coastal water at 1 m, hybrid / Monte Carlo − 1 over five patches −15…+6 %; Jerlov
+III at 3 m, fast / hybrid − 1 −3…+16 % at 400 000 photons, −3…+7 % at 800 000, while fast / Monte Carlo read
+−28…+56 %.)  Since 2026-12-04 the light tracer also sends a flight from every scattering vertex and light to
+the chart, combined with its hits by the balance heuristic (``surface_nee``,
 :class:`rigsim.preview.multiple._SurfaceNEE`): per patch 3–7x less noise in coastal water (the direct light),
 ~1.5–2x in Jerlov III at 3 m and 9C at 1 m (there the light on a patch is forward-scattered light the hits
-carry), for 1.5x the time — not enough to make it the check in those waters.
+carry), for 1.5x the time.
 
 ``--smooth 2`` (2026-12-04) fits the patches' light-traced irradiance with a quadratic in the chart's plane
 (:func:`smooth_chart_irradiance`), pooling the 24 patches' photons: the raw patch means scatter about the fit as
 their noise says (rms of (raw − fit)/SE 1.0 in coastal water at 1 m, Jerlov III at 3 m and 9C at 1 m, 72 values
 each), and the fit's own SE per patch is 3 % in 9C at 1 m and 4–8 % in III at 3 m at 400 000 photons (60–90 s).
-But the hybrid is not yet a reference: checked where Monte Carlo is good (coastal, chart at 1 m, 400 000
-photons, 8 renders of 32 spp) hybrid / Monte Carlo − 1 is −0.6 … −16 % over the patches (median about −5 %),
-most on dark patches (black 2: −13 … −17 %; white: −4 … +3 %) — as if a radiance of 3–4 % of the white patch's,
-about the same on every patch, were missing: its camera pass (or the split between the renderer's backscatter
-layer and the reflected light) leaves something out.  Until that is found its numbers elsewhere (9C at 1 m,
-1 600 000 photons: fast / hybrid − 1 from −34 to +40 % per patch) say nothing about the fast engine.  Jerlov III, colorchecker at 3 m, ``twin-strobes-45-wide``:
-fast / hybrid − 1 over the same patches −3…+16 % (400 000 photons) and −3…+7 % (800 000, another seed),
-while fast / Monte Carlo (2–4 renders of 32 spp) read −28…+56 %.  What it would take to be the check: the
-tracer on Dr.Jit (or far fewer bands per photon) and the emitters sampled by power in the camera pass.
+The fit is evaluated on the chart's body too: its own texture cells average the lit 5 mm gaps with the dark
+under the patches, so its emitters shone at about a third of the gaps' light, and the glow of those gaps over
+the dark patches (whose own reflection is as small) was missing — with the body's cells as traced the hybrid
+read −0.6 … −16 % below Monte Carlo in coastal water at 1 m (black patch −13 … −17 %).  With the fit on the body
+(2026-12-04; coastal, chart at 1 m, 400 000 photons, 8 renders of 32 spp, all 24 patches × 3 colour groups and
+the open water): hybrid / Monte Carlo − 1 median −0.1 %, mean −0.1 %, from −7.4 to +6.3 % against the renders'
+1–3 % standard errors — where Monte Carlo is good, the hybrid agrees with it.  What it would take to be the
+study's check: the tracer on Dr.Jit (or far fewer bands per photon), and the camera pass's own noise measured.
 
     python benchmarks/bench_reference_hybrid.py --water jerlov-III --distance 3
     python benchmarks/bench_reference_hybrid.py --water coastal --distance 1 --photons 400000   # a check of it
@@ -132,8 +132,8 @@ def emissive_camera_pass(scene, surf, E, rho, wl, bw, *, width, height, spp, see
 def smooth_chart_irradiance(surf, E: np.ndarray, batches: list[np.ndarray], order: int = 2):
     """The light-traced irradiance ``E`` (S, T, T, B) of a ColorChecker's patches replaced by a polynomial of
     ``order`` in the chart's plane (u, v about the chart body's centre), fitted per band to the texture cells of
-    all 24 patches (their areas as weights; the body is left as it was: its cells mix the lit gaps with the dark
-    under the patches).  The irradiance of a chart a metre or more into turbid water is smooth across it —
+    all 24 patches (their areas as weights) and evaluated on the patches and on the body (whose own cells mix the
+    lit gaps with the dark under the patches).  The irradiance of a chart a metre or more into turbid water is smooth across it —
     the strobes' beams and the multiply scattered light change over decimetres — while a patch's own cells hold
     few photons: the fit pools them.  Returns ``(E_fit, rows)``: rows per patch (label, raw mean, fitted mean,
     each batch's patch mean (``batches``: each batch's E)) per band, to check that the chart's light is that
@@ -165,6 +165,14 @@ def smooth_chart_irradiance(surf, E: np.ndarray, batches: list[np.ndarray], orde
     coef, *_ = np.linalg.lstsq(A * wsq, raw * wsq, rcond=None)
     fit = A @ coef
     E_fit = E.copy()
+    # the body too: its texture cells average the lit gaps with the dark under the patches (its light read ~1/3
+    # of the gaps' in the camera pass), while the gaps are lit by the same smooth field
+    hw, hh = surf.half_size[k0]
+    bc = surf.center[k0][None, None, :] + hw * g[:, None, None] * surf.u[k0] + hh * g[None, :, None] * surf.v[k0]
+    rel = bc - surf.center[k0]
+    bx, by = (rel @ surf.u[k0]).reshape(-1) / scale, (rel @ surf.v[k0]).reshape(-1) / scale
+    B_ = np.stack([bx ** i * by ** j for i in range(order + 1) for j in range(order + 1 - i)], axis=1)
+    E_fit[k0] = (B_ @ coef).reshape(TEXTURE, TEXTURE, -1)
     n = TEXTURE * TEXTURE
     rows = []
     for j, k in enumerate(idx):
