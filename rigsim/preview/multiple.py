@@ -106,7 +106,10 @@ beyond tolerance + t·SE (35 in the table before), 13 of them in Jerlov 9C, 6 in
 2 in 3C (strobes) and 3 in Jerlov I (daylight at 15 m: red patches, red band, +8 … +11 ± 2–4 %) — the open
 water of 9C at 1 m around a black disk (−7.0 ± 0.7 %, blue) and 27 chart patches, every one of them
 brighter in the fast engine (+10 … +37 %) and on a target whose Monte Carlo reference has a patch with
-one render 4.5–57× the median render (:func:`rigsim.metrics.agreement.target_tails`).  In the table before,
+one render 4.5–57× the median render (:func:`rigsim.metrics.agreement.target_tails`).  Against a second
+reference that traces the strobes' light instead (``benchmarks/bench_reference_hybrid.py``: within −7 … +6 %,
+median −0.1 %, of Monte Carlo in coastal water), the fast engine's chart in 9C at 1 m is −4.2 % (median over its
+72 patch cells, −17 … +12 %), where the table's 16 renders had it +21 … +37 % on 11 cells.  In the table before,
 34 of its 35 cells were on such a target; the 35th was 9C's open water.  Rendered 48–64 times
 (``benchmarks/bench_reference_convergence.py``) most of them fall within the noise — III's white patch at
 3 m from +23 % to −5 ± 12 % (blue), 9C's at 1 m from +30 % to +6 ± 11 % — while a few stay above, light-tailed:
