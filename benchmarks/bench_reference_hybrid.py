@@ -55,14 +55,15 @@ read −0.6 … −16 % below Monte Carlo in coastal water at 1 m (black patch �
 (2026-12-04; coastal, chart at 1 m, 400 000 photons, 8 renders of 32 spp, all 24 patches × 3 colour groups and
 the open water): hybrid / Monte Carlo − 1 median −0.1 %, mean −0.1 %, from −7.4 to +6.3 % against the renders'
 1–3 % standard errors — where Monte Carlo is good, the hybrid agrees with it.
-In Jerlov 9C at 1 m the camera pass is itself slow to converge (the camera leg's forward-scattered light through
+In Jerlov 9C at 1 m (the chart at its real size, 0.28 m) the camera pass is itself slow to converge (the camera leg's forward-scattered light through
 ``volpath``; the neutral 5 patch at 450 nm read 2.03 / 1.09 / 1.28 e-4 at 16 / 64 / 256 spp per band): at 32 and
 512 spp the fast engine read 18–32 % above it in the bright patches' blue, at 2048 spp not.  With 1 600 000 photons
 (218 s), 2048 spp per band (874 s) and 64 renders for the veil (75 s; ``--seed 2``): fast / hybrid − 1 over the
 72 patch cells median −4.2 %, mean −3.8 %, −17.2 … +11.6 % (5 beyond ±10 %; blue / green / red medians −1.4 /
 −4.0 / −4.5 %), hybrid / Monte Carlo median +1.7 %; the open water −4.4 / −2.8 / −1.7 %.  The published table's
-9C chart cells at 1 m (fast +21 … +37 % above 16 renders of Monte Carlo) were that reference's heavy tail; the fast
-engine's patches there are a few per cent low, as its veil is.  What it would take to be the study's check: the
+9C chart cells at 1 m (a chart 40 % of the field, 0.9 m wide: ``--fill 0.4``; fast +21 … +37 % above 16 renders of Monte Carlo)
+look like that reference's heavy tail: in the same water at the same distance the fast engine's patches are a few
+per cent low, as its veil is (64 renders of Monte Carlo: −1.7 %).  What it would take to be the study's check: the
 tracer and the camera pass an order of magnitude faster (the tracer on Dr.Jit; the camera pass at far fewer bands).
 
     python benchmarks/bench_reference_hybrid.py --water jerlov-III --distance 3
@@ -206,6 +207,8 @@ def main(argv=None) -> int:
     ap.add_argument("--spp", type=int, default=32, help="paths per pixel of each Monte Carlo render")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--cells", type=int, default=2, help="emitters per side of each chart piece in the camera pass")
+    ap.add_argument("--fill", type=float, default=None,
+                    help="the chart's width over the field's (the agreement benchmark's 0.4); default: its real size")
     ap.add_argument("--all-regions", action="store_true", help="print every patch (default: five and the open water)")
     ap.add_argument("--smooth", type=int, default=-1, metavar="ORDER",
                     help="fit the patches' light-traced irradiance with a polynomial of this order in the chart's plane "
@@ -225,7 +228,13 @@ def main(argv=None) -> int:
     from rigsim.water import preset
 
     water = preset(a.water)
-    scene = build_scene(load_rig(ROOT / "rigs" / f"{a.rig}.toml"), water, "colorchecker", a.distance)
+    rig = load_rig(ROOT / "rigs" / f"{a.rig}.toml")
+    if a.fill is None:
+        scene = build_scene(rig, water, "colorchecker", a.distance)
+    else:  # as the agreement benchmark's (its [sweep] target_fill)
+        from rigsim.scene.optics import field_width_m
+
+        scene = build_scene(rig, water, "colorchecker", a.distance, size_m=a.fill * field_width_m(rig.camera, a.distance))
     wl, bw = band_edges(np.arange(400.0, 701.0, 10.0))
     strobes = [l for l in scene.lights if l.kind == "strobe"]
     t0 = time.perf_counter()
