@@ -249,14 +249,12 @@ def main(argv=None) -> int:
     t_lt = time.perf_counter() - t0
     E = lt.irradiance
     if a.smooth >= 0:
-        from rigsim.metrics.agreement import colour_groups as _groups
-
         E, rows = smooth_chart_irradiance(surf, E, [lt.batch(k).irradiance for k in range(lt.n_batches)], a.smooth)
         print(f"light-traced irradiance of the patches against its fit of order {a.smooth} (raw / fit − 1, "
               f"± the raw mean's SE), blue / green / red:")
         for name, raw, fit, per in rows:
             parts = []
-            for g_, ix in _groups(wl).items():
+            for g_, ix in colour_groups(wl).items():
                 r_, f_ = raw[ix].mean(), fit[ix].mean()
                 s_ = per[:, ix].mean(axis=1).std(ddof=1) / np.sqrt(len(per))
                 parts.append(f"{r_ / f_ - 1:+6.1%} ± {s_ / f_:4.1%}")
