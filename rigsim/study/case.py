@@ -185,12 +185,18 @@ def _dng_bytes(cap) -> bytes:
         return save_dng(cap, Path(d) / "raw.dng").read_bytes()
 
 
-def compute_check(spec: StudySpec, case: Case) -> dict:
+def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
     """The Monte Carlo check of one case: the fast engine and ``spec.check.seeds`` independent
     Monte Carlo renders at the check size (more, up to ``max_seeds``, where the first ones are too
     noisy: :class:`~rigsim.study.spec.CheckSettings`), compared region by region
     (:mod:`rigsim.metrics.agreement`), with the fast engine's own noise from the images of each batch of its
     multiple-scattering photons (:func:`rigsim.preview.render_photon_batches`).
+
+    ``render_cache``: a folder (the study's ``mc-renders``) where each Monte Carlo render is kept as it
+    finishes (:func:`cached_render_dir`), so a check that is interrupted, or run again with more renders
+    (``max_seeds``, ``target_se``) or after a change to the fast engine, renders only what it lacks.  The
+    renders are deterministic in their seeds; a render made by an older renderer is reused as the check
+    records are (delete the folder after changing the renderer).
 
     Returns ``{"record": {...}, "files": {"fast.png": ..., "monte-carlo.png": ...}}``.
     """
@@ -214,10 +220,18 @@ def compute_check(spec: StudySpec, case: Case) -> dict:
     t_fast = time.perf_counter() - t0
     t0 = time.perf_counter()
 
+    mc_layers = ("object_id", "backscatter") + tuple(k for k in layers if k.startswith("particle"))
+    keep = None if render_cache is None else cached_render_dir(render_cache, spec, case)
+
     def mc(i):
-        return render(scene, width=ck.width, height=ck.height, spp=ck.spp, seed=(seed + 7919 * i) % 2**32,
-                      integrator=ck.integrator, wavelengths_nm=wl,
-                      layers=("object_id", "backscatter") + tuple(k for k in layers if k.startswith("particle")))
+        f = None if keep is None else keep / f"render-{i:03d}.npz"
+        img = None if f is None else _read_render(f, (ck.height, ck.width, len(wl)))
+        if img is None:
+            img = render(scene, width=ck.width, height=ck.height, spp=ck.spp, seed=(seed + 7919 * i) % 2**32,
+                         integrator=ck.integrator, wavelengths_nm=wl, layers=mc_layers)
+            if f is not None:
+                _write_render(f, img)
+        return img
 
     refs = [mc(i) for i in range(ck.seeds)]
     regions, metrics = compare_renders(fast, refs, target_kind, fast_batches=fast_batches)
@@ -244,6 +258,52 @@ def compute_check(spec: StudySpec, case: Case) -> dict:
     fast_rgb, shown = srgb_preview(fast)  # one exposure for both pictures: the fast image's
     mc_rgb, _ = srgb_preview(_mean_image(refs), scale=shown["xyz_scale"])
     return {"record": record, "files": {"fast.png": png_bytes(fast_rgb), "monte-carlo.png": png_bytes(mc_rgb)}}
+
+
+def cached_render_dir(root, spec: StudySpec, case: Case):
+    """The folder of a check's kept Monte Carlo renders below ``root``: one per case (its id holds the
+    scene, the render settings and the seed) and per setting of a render (size, paths per pixel,
+    integrator); not per ``seeds`` / ``max_seeds`` / ``target_se``, which only say how many."""
+    from pathlib import Path
+
+    ck = spec.check
+    return Path(root) / f"{spec.case_id(case)}__{ck.width}x{ck.height}-{ck.spp}spp-{ck.integrator}"
+
+
+def _write_render(f, img) -> None:
+    import json
+
+    from rigsim.fileio import atomic_write_npz
+
+    f.parent.mkdir(parents=True, exist_ok=True)
+    arrays = {"radiance": np.asarray(img.radiance, np.float32), "wavelength_nm": np.asarray(img.wavelength_nm),
+              "bandwidth_nm": np.asarray(img.bandwidth_nm),
+              "meta_json": np.array(json.dumps(img.meta, default=str))}
+    arrays.update({f"layer_{k}": np.asarray(v) for k, v in img.layers.items()})
+    atomic_write_npz(f, arrays)
+
+
+def _read_render(f, shape: tuple[int, int, int]):
+    """A kept render, or None where there is none or it cannot be read (then it is rendered again)."""
+    import json
+    import zipfile
+
+    from rigsim.spectral_image import SpectralImage
+
+    if not f.is_file():
+        return None
+    try:
+        with np.load(f, allow_pickle=False) as z:
+            lay = {k[6:]: z[k] for k in z.files if k.startswith("layer_")}
+            img = SpectralImage(radiance=z["radiance"], wavelength_nm=z["wavelength_nm"],
+                                bandwidth_nm=z["bandwidth_nm"], layers=lay, meta=json.loads(str(z["meta_json"])))
+    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
+        log.warning("%s cannot be read (%s): rendering it again", f, exc)
+        return None
+    if img.radiance.shape != tuple(shape) or not np.all(np.isfinite(img.radiance)):
+        log.warning("%s is not a %s render or holds non-finite radiance: rendering it again", f, shape)
+        return None
+    return img
 
 
 def _mean_image(refs: list):

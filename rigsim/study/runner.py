@@ -27,6 +27,7 @@ the finished ones, so a resumed run replays them from the stored cases.
 from __future__ import annotations
 
 import csv
+import functools
 import io
 import json
 import logging
@@ -132,13 +133,21 @@ def _store_check(out: Path, spec: StudySpec, case: Case, result: dict) -> None:
     atomic_write_text(d / "check.json", json.dumps(result["record"], indent=1, default=float))  # completion marker
 
 
-def _run_one(args: tuple[StudySpec, str, Case]) -> dict:
+#: Sub-folder of a study's folder where its Monte Carlo checks keep each render
+#: (:func:`rigsim.study.case.cached_render_dir`).
+MC_RENDERS = "mc-renders"
+
+
+def _run_one(args: tuple[StudySpec, str, Case], out: str | None = None) -> dict:
     """Worker side: compute one case or check (imports inside so workers load only what they need)."""
     from rigsim.study.case import compute_case, compute_check
 
     spec, kind, case = args
     t0 = time.perf_counter()
-    res = (compute_check if kind == "check" else compute_case)(spec, case)
+    if kind == "check":
+        res = compute_check(spec, case, render_cache=None if out is None else Path(out) / MC_RENDERS)
+    else:
+        res = compute_case(spec, case)
     res.setdefault("meta", {})["wall_time_s"] = time.perf_counter() - t0
     if kind == "check":
         res["record"]["wall_time_s"] = res["meta"]["wall_time_s"]
@@ -206,7 +215,7 @@ def run_study(spec: StudySpec, out: str | Path, *, scheduler: str | None = None,
             # on the same workers beside the rest of the sweep (2026-12-04: the steps had waited for the
             # whole sweep and then run one at a time in this process — the demo's 26 steps in five
             # rounds took 2 min 28 s of its 14 min 11 s on 2 cores)
-            run_tasks(items, _run_one, lambda it, res: _store_item(out, it, res),
+            run_tasks(items, functools.partial(_run_one, out=str(out)), lambda it, res: _store_item(out, it, res),
                       is_done=lambda it: _is_done(out, it), key=_item_key, scheduler=scheduler, workers=workers,
                       serial=serial, progress=progress, label="study",
                       on_done=(lambda it: on_case_done(it[2])) if on_case_done else None,

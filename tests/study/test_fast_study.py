@@ -98,6 +98,44 @@ def test_two_stage_checks_take_more_renders_only_where_the_first_are_too_noisy(t
         assert rec["seeds"] == want and rec["pilot"]["seeds"] == 2 and rec["pilot"]["se_p90"] > 0
 
 
+def test_a_checks_monte_carlo_renders_are_kept_and_only_the_missing_ones_rendered_again(tmp_path, monkeypatch):
+    """With a render cache a check renders each of its Monte Carlo images once: the same check again renders
+    nothing and gives the same record; asked for more renders (max_seeds) it renders only the new ones; a
+    damaged file is rendered again.  Without the cache every render is made."""
+    import rigsim.render as rr
+    from rigsim.study.case import cached_render_dir, compute_check
+
+    calls = []
+    real = rr.render
+
+    def counting(*a, **k):
+        calls.append(k["seed"])
+        return real(*a, **k)
+
+    monkeypatch.setattr(rr, "render", counting)
+    extra = "\n[check]\nwidth = 16\nheight = 12\nspp = 2\nseeds = 2\n"
+    spec = load_study(fast_study(tmp_path, waters='["coastal"]', distances="[1.5]", render_extra="check_with_mitsuba = 1",
+                                 extra=extra))
+    case = spec.check_cases()[0]
+    cache = tmp_path / "mc"
+    first = compute_check(spec, case, render_cache=cache)["record"]
+    assert len(calls) == 2 and len(list(cached_render_dir(cache, spec, case).glob("render-*.npz"))) == 2
+    again = compute_check(spec, case, render_cache=cache)["record"]
+    assert len(calls) == 2, "a kept render was made again"
+    assert [r["reference"] for r in again["regions"]] == [r["reference"] for r in first["regions"]]
+    more = load_study(fast_study(tmp_path, waters='["coastal"]', distances="[1.5]", render_extra="check_with_mitsuba = 1",
+                                 extra=extra + "max_seeds = 3\ntarget_se = 1e-6\n"))
+    assert more.check_id(case) != spec.check_id(case)
+    assert compute_check(more, more.check_cases()[0], render_cache=cache)["record"]["seeds"] == 3
+    assert len(calls) == 3, "only the third render is new"
+    f = cached_render_dir(cache, spec, case) / "render-000.npz"
+    f.write_bytes(f.read_bytes()[:100])  # truncated (a full disk, a kill outside the atomic write)
+    assert compute_check(spec, case, render_cache=cache)["record"]["seeds"] == 2
+    assert len(calls) == 4 and calls[-1] == calls[0]  # the damaged one again, with its own seed
+    compute_check(spec, case)
+    assert len(calls) == 6
+
+
 def _rows(path: Path) -> list[dict]:
     with path.open() as fh:
         return list(csv.DictReader(fh))
