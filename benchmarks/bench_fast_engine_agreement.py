@@ -19,6 +19,13 @@ holds the reference's noise and the fast engine's own, from its photon batches).
     python benchmarks/bench_fast_engine_agreement.py --quick               # 3 waters, 2 distances, 1 rig
     python benchmarks/bench_fast_engine_agreement.py --waters jerlov-7C --distances 1,3 --rigs twin-strobes-45-wide
     python benchmarks/bench_fast_engine_agreement.py --multiple-scattering off --quick    # without the multiply scattered light
+    python benchmarks/bench_fast_engine_agreement.py --quick --out out/b --renders-from out/a   # a fast-engine change
+                                                                  # against the Monte Carlo renders a run into out/a kept
+
+Each Monte Carlo render is kept as it finishes (``<out>/<lighting>/mc-renders``, keyed by the scene's contents, seed,
+bands and render settings — not by where the checkout is, nor by the fast engine): a run asked for more renders
+(``--max-seeds``) renders only the new ones, and ``--renders-from`` checks a changed fast engine against the same
+references without rendering them again.
 """
 
 from __future__ import annotations
@@ -95,6 +102,10 @@ def main(argv=None) -> int:
     ap.add_argument("--multiple-scattering", choices=("off", "on", "auto"), default="auto",
                     help="the fast engine's multiply scattered light ([render] multiple_scattering; default auto, as studies)")
     ap.add_argument("--quick", action="store_true", help="clear, coastal-regions, jerlov-3C at 1 and 3 m, one rig")
+    ap.add_argument("--renders-from", type=Path, default=None, metavar="DIR",
+                    help="use (and add to) the Monte Carlo renders kept by an earlier run with --out DIR "
+                         "(<DIR>/<lighting>/mc-renders): a change to the fast engine is checked against the same "
+                         "references in minutes")
     ap.add_argument("--publish", action="store_true",
                     help=f"write the per-water summary to {PUBLISHED.relative_to(ROOT)} (the rig designer shows it)")
     args = ap.parse_args(argv)
@@ -109,7 +120,7 @@ def main(argv=None) -> int:
              for d in (float(x) for x in _list(args.depths))]
 
     from rigsim.study import load_study, run_study
-    from rigsim.study.runner import agreement_rows, read_checks
+    from rigsim.study.runner import MC_RENDERS, agreement_rows, read_checks
 
     args.out.mkdir(parents=True, exist_ok=True)
     rows: list[dict] = []
@@ -121,6 +132,11 @@ def main(argv=None) -> int:
                                   max_seeds=max(args.seeds, args.max_seeds), target_se=args.target_se,
                                   ms=args.multiple_scattering).replace("'", '"'))
         spec = load_study(f)
+        if args.renders_from is not None:
+            src, dst = args.renders_from.resolve() / name / MC_RENDERS, args.out / name / MC_RENDERS
+            if src.is_dir() and not dst.exists():
+                dst.parent.mkdir(parents=True, exist_ok=True)
+                dst.symlink_to(src, target_is_directory=True)
         out = run_study(spec, args.out / name, serial=args.serial)
         for r in agreement_rows(read_checks(spec, out)):
             rows.append({**r, "lighting": name})

@@ -239,14 +239,20 @@ class StudySpec:
         files among them (rig, water, mesh) by their contents, not where they are: the same study in
         another checkout draws the same random numbers (with absolute paths it did not, and the demo's
         Monte Carlo checks and multiply scattered light came out differently in every clone)."""
+        h = hashlib.sha1(json.dumps({"seed": self.seed, "case": self.content_key(case)}, sort_keys=True).encode())
+        return int(h.hexdigest()[:8], 16)
+
+    def content_key(self, case: Case) -> dict:
+        """A case's inputs with the files among them (rig, water, mesh) replaced by their contents' hashes:
+        the same case in another checkout has the same key (:meth:`case_seed`, the kept Monte Carlo renders
+        of :func:`rigsim.study.case.cached_render_dir`)."""
         key = case.key()
         for name, value in key.items():
             if isinstance(value, str) and value.endswith((".toml", ".obj", ".ply", ".gltf", ".glb")):
                 f = Path(value)
                 if f.is_file():
                     key[name] = hashlib.sha1(f.read_bytes()).hexdigest()
-        h = hashlib.sha1(json.dumps({"seed": self.seed, "case": key}, sort_keys=True).encode())
-        return int(h.hexdigest()[:8], 16)
+        return key
 
 
 def select_check_cases(cases: list[Case], n: int) -> list[Case]:

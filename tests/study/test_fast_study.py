@@ -134,6 +134,20 @@ def test_a_checks_monte_carlo_renders_are_kept_and_only_the_missing_ones_rendere
     assert len(calls) == 4 and calls[-1] == calls[0]  # the damaged one again, with its own seed
     compute_check(spec, case)
     assert len(calls) == 6
+    # the same study in another checkout (its rig file elsewhere, same contents) finds the same renders;
+    # another rig does not
+    other = tmp_path / "elsewhere"
+    (other / "rigs").mkdir(parents=True)
+    rig = ROOT / "rigs" / "twin-strobes-close-to-port.toml"
+    (other / "rigs" / rig.name).write_bytes(rig.read_bytes())
+    text = (tmp_path / "fast.toml").read_text().replace(str(ROOT / "rigs"), str(other / "rigs"))
+    (tmp_path / "fast.toml").write_text(text)
+    moved = load_study(tmp_path / "fast.toml")
+    assert moved.case_id(moved.check_cases()[0]) != spec.case_id(case)
+    assert cached_render_dir(cache, moved, moved.check_cases()[0]) == cached_render_dir(cache, spec, case)
+    (other / "rigs" / rig.name).write_text(rig.read_text() + "\n# another rig file (a comment: its contents differ)\n")
+    changed = load_study(tmp_path / "fast.toml")
+    assert cached_render_dir(cache, changed, changed.check_cases()[0]) != cached_render_dir(cache, spec, case)
 
 
 def _rows(path: Path) -> list[dict]:
