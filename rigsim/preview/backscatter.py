@@ -108,7 +108,7 @@ def s_nodes(s_max: float, n_nodes: int) -> tuple[np.ndarray, np.ndarray]:
 def cumulative_backscatter(origin: np.ndarray, direction: np.ndarray, s: np.ndarray, lights: list[LightTables],
                            *, bw: np.ndarray, c: np.ndarray, kappa_light: np.ndarray, kappa_cam: np.ndarray,
                            components, forward: bool, surfaces: SceneSurfaces | None = None,
-                           chunk_elems: int = 4_000_000) -> np.ndarray:
+                           chunk_elems: int = 4_000_000, spread=None) -> np.ndarray:
     """Cumulative backscatter ``∫₀^{s_j}`` at the nodes for each ray: (N, n_nodes, Λ).
 
     Parameters
@@ -131,6 +131,10 @@ def cumulative_backscatter(origin: np.ndarray, direction: np.ndarray, s: np.ndar
         Use the SAA illumination (see module docstring).
     surfaces
         If given, volume points in a surface's shadow get no light from that light.
+    spread
+        With ``forward``: ``(cos_psi, r) → (…, Λ)`` the volume scattering function of the beam's
+        forward-scattered light, whose directions have spread about the line from the light
+        (:meth:`rigsim.preview.forward.SmallAngle.spread_beta`); None: ``β(ψ)`` as the unscattered light's.
     """
     N, M, L = len(origin), len(s), bw.shape[1]
     out = np.zeros((N, M, L))
@@ -153,8 +157,14 @@ def cumulative_backscatter(origin: np.ndarray, direction: np.ndarray, s: np.ndar
             att = np.exp(-r[..., None] * c)
             illum = lt.beam_fn(theta)[..., None] * att
             if forward and lt.blurred is not None:
-                illum = illum + lt.blurred_at(theta, r) * (np.exp(-r[..., None] * kappa_light) - att)
-            val = beta * illum * (lt.intensity / np.maximum(r, 1e-9)[..., None] ** 2)
+                fs = lt.blurred_at(theta, r) * (np.exp(-r[..., None] * kappa_light) - att)
+                if spread is not None:
+                    illum = beta * illum + spread(cos_psi, r) * fs
+                else:
+                    illum = beta * (illum + fs)
+            else:
+                illum = beta * illum
+            val = illum * (lt.intensity / np.maximum(r, 1e-9)[..., None] ** 2)
             if surfaces is not None and len(surfaces):
                 val *= ~occluded(surfaces, p, lt.position)[..., None]
             g += val

@@ -184,6 +184,62 @@ _BEAM_CACHE_SIZE = 16
 _KERNEL_F32_MIN_TF = 0.5  # bands with τF above this get their blur kernel in float32 (unit_kernel's two forms)
 
 
+#: Legendre terms of the spread phase function (:func:`_spread_moments`): resolves ~180°/L of angle; a Lanczos
+#: σ-window damps the series' ringing at the phase function's cell edges (and at ψ_c, where its wide part starts).
+_SPREAD_L = 720
+#: ψ nodes (0…π, 1° apart) and μ = bF r nodes (log-spaced, clamped) of the spread phase function's tables.
+_SPREAD_PSI_NODES = 181
+_SPREAD_MU_NODES = np.geomspace(1e-3, 300.0, 56)
+_SPREAD_CACHE: "weakref.WeakKeyDictionary[PhaseTables, dict]" = weakref.WeakKeyDictionary()
+
+
+def _legendre_table(x: np.ndarray, L: int) -> np.ndarray:
+    """(L + 2, len(x)) Legendre polynomials P_0 … P_{L+1} at ``x`` (Bonnet's recurrence)."""
+    P = np.empty((L + 2, len(x)))
+    P[0] = 1.0
+    P[1] = x
+    for l in range(1, L + 1):
+        P[l + 1] = ((2 * l + 1) * x * P[l] - l * P[l - 1]) / (l + 1)
+    return P
+
+
+def _spread_moments(components: PhaseTables, cutoff_rad: float):
+    """``(wide_l, small_l, P_psi)``: each component's Legendre moments ``∫ p P_l dΩ`` (K, L + 1) of its cells by
+    more than ``cutoff_rad`` and of its cells below it (the latter's l = 0 term is the forward fraction F_k),
+    exact for the piecewise-constant densities (``∫ P_l dμ = (P_{l+1} − P_{l−1}) / (2l + 1)``); and P_l at the ψ
+    nodes (L + 1, n_ψ) times ``(2l + 1)/(4π)`` and the Lanczos window.  Kept per phase function."""
+    per = _SPREAD_CACHE.setdefault(components, {})
+    key = ("moments", float(cutoff_rad))
+    hit = per.get(key)
+    if hit is not None:
+        return hit
+    L = _SPREAD_L
+    mu_e = components.grid.mu_edges  # descending 1 … −1
+    Pe = _legendre_table(mu_e, L)
+    l = np.arange(L + 1)
+    prim = np.empty((L + 1, len(mu_e)))  # ∫_{-1}^{μ} P_l
+    prim[0] = mu_e + 1.0
+    prim[1:] = (Pe[2:L + 2] - Pe[0:L]) / (2 * l[1:, None] + 1)
+    width = mu_e[:-1] - mu_e[1:]
+    cell = (prim[:, :-1] - prim[:, 1:]) / np.maximum(width, 1e-300)  # (L+1, cells): mean P_l
+    # cells narrower than this in μ (the forward peak's, down to 1e-4 rad): the difference of primitives cancels
+    # catastrophically; P_l at the cell's middle instead (P_l varies by ~l² δμ across it)
+    tiny = width < 1e-6
+    if np.any(tiny):
+        cell[:, tiny] = _legendre_table(0.5 * (mu_e[:-1] + mu_e[1:])[tiny], L)[:L + 1]
+    fwd = components.forward_cells(cutoff_rad)
+    m = components.masses
+    wide_l = np.where(fwd[None, :], 0.0, m) @ cell.T
+    small_l = np.where(fwd[None, :], m, 0.0) @ cell.T
+    psi = np.linspace(0.0, np.pi, _SPREAD_PSI_NODES)
+    x = np.pi * l / (L + 1)
+    window = np.where(l == 0, 1.0, np.sin(x) / np.where(l == 0, 1.0, x))
+    P_psi = _legendre_table(np.cos(psi), L)[:L + 1] * ((2 * l + 1) / (4 * np.pi) * window)[:, None]
+    hit = (wide_l, small_l, P_psi)
+    per[key] = hit
+    return hit
+
+
 class SmallAngle:
     """Small-angle forward scattering for a set of bands (see module docstring).
 
@@ -312,6 +368,59 @@ class SmallAngle:
         if not finite.any() or not np.any(self.F > 0):
             return None
         return BlurPlan(self, np.where(finite, range_m, np.nan), finite, pitch_rad, max_bins, bin_ratio)
+
+    # -- the direction of forward-scattered light ---------------------------------------
+    def spread_table(self, bw: np.ndarray) -> np.ndarray:
+        """(B, n_μ, n_ψ) :meth:`spread_beta` on its nodes (ψ 0…π, μ = bF r :data:`_SPREAD_MU_NODES`); kept per
+        phase function and set of bands."""
+        bw = np.asarray(bw, float)
+        per = _SPREAD_CACHE.setdefault(self.components, {})
+        key = ("table", self.cutoff_rad, self.w.tobytes(), bw.tobytes())
+        hit = per.get(key)
+        if hit is None:
+            wide_l, small_l, P_psi = _spread_moments(self.components, self.cutoff_rad)
+            one = (self.w @ small_l) / np.maximum(self.F, 1e-300)[:, None]  # (B, L+1): one small-angle turn
+            mu = _SPREAD_MU_NODES[None, :, None]
+            # N ≥ 1 turns, N Poisson of mean μ: Σ_N μ^N e^{−μ}/N! p̂^N / (1 − e^{−μ})
+            d = (np.exp(mu * (one[:, None, :] - 1.0)) - np.exp(-mu)) / -np.expm1(-mu)
+            beta_l = bw.T @ wide_l  # (B, L+1)
+            hit = np.einsum("bml,lp->bmp", d * beta_l[:, None, :], P_psi, optimize=True)
+            per[key] = hit
+        return hit
+
+    def spread_beta(self, cos_psi: np.ndarray, r_m: np.ndarray, bw: np.ndarray) -> np.ndarray:
+        """Volume scattering function by more than ψ_c (1/(m sr), ``shape(cos_psi) + (B,)``) of the beam's
+        forward-scattered light at angle ψ from the straight line from the light, after ``r_m`` of water; ``bw``
+        (K, B) ``b w_k`` per band.
+
+        The quasi-single backscatter took that light as going straight on.  Its direction has been turned by
+        N ≥ 1 scatterings by less than ψ_c (N Poisson of mean μ = bF r, each turn drawn from the phase
+        function's cells below ψ_c about a random axis), so the wide-angle phase function it meets is averaged
+        over those directions: on the sphere, exactly, a product of Legendre moments (the addition theorem),
+        ``β̄(ψ) = Σ_l (2l+1)/(4π) β_l d_l P_l(cos ψ)``, ``β_l`` the moments of ``Σ_k bw_k p_k`` over its cells
+        by more than ψ_c, ``d_l = (e^{μ(p̂_l − 1)} − e^{−μ}) / (1 − e^{−μ})``, ``p̂_l`` the mean of P_l(cos ψ) over
+        one small-angle turn (:func:`_spread_moments`; :data:`_SPREAD_L` terms).  The light's direction is taken
+        to be spread about the line from the light as in a broad beam (at a beam's edge it is also tilted
+        outwards, which this leaves out).  Linear in ψ and in ln μ between the table's nodes
+        (:meth:`spread_table`).
+        """
+        table = self.spread_table(bw)
+        B, n_m, n_p = table.shape
+        cos_psi = np.asarray(cos_psi, float)
+        x = np.clip(np.arccos(np.clip(cos_psi, -1.0, 1.0)) * ((n_p - 1) / np.pi), 0.0, n_p - 1.000001)
+        i = x.astype(np.int64)[..., None]
+        fx = (x - i[..., 0])[..., None]
+        mu = np.maximum(self.b * self.F * np.asarray(r_m, float)[..., None], _SPREAD_MU_NODES[0])
+        lm = np.log(_SPREAD_MU_NODES)
+        y = np.clip((np.log(mu) - lm[0]) / (lm[1] - lm[0]), 0.0, n_m - 1.000001)
+        j = y.astype(np.int64)
+        fy = y - j
+        flat = table.reshape(-1)
+        a0 = ((np.arange(B) * n_m) + j) * n_p + i  # (…, B)
+        a1 = a0 + n_p
+        lo = flat[a0] * (1 - fx) + flat[a0 + 1] * fx
+        hi = flat[a1] * (1 - fx) + flat[a1 + 1] * fx
+        return lo * (1 - fy) + hi * fy
 
     # -- light leg ---------------------------------------------------------------------
     def blurred_beam(self, beam: BeamPattern, r_nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -182,6 +182,9 @@ def _water_at(scene: Scene, wl: np.ndarray, lam: np.ndarray, cutoff_rad: float, 
 #: tracer the rest.  Measured (``rigsim.preview.multiple`` docstring, ``classes="A"``): at 30° the
 #: quasi-single-scattering veil equals the traced paths of its class to 0.8 %; at 90° it is 19 % high.
 MS_CUTOFF_DEG = 30.0
+#: The quasi-single backscatter of the beam's forward-scattered light with its directions spread about the line
+#: from the light (:meth:`rigsim.preview.forward.SmallAngle.spread_beta`); False: as if it went straight on.
+SPREAD_PHASE = True
 #: Wide-angle scattering ``b (1 − F(30°))`` at 550 nm (1/m) from which ``multiple="auto"`` adds the
 #: multiply scattered light.  Set from the agreement benchmark without it
 #: (``data/fast_engine/agreement.csv`` of 2026-12-01): the waters below it (pure-sea, oceanic, the
@@ -1202,11 +1205,17 @@ def _backscatter_grid(scene, surf, tables, water, forward, cam, width, height, w
     o, d = o.reshape(-1, 3), d.reshape(-1, 3)
     chunks = np.array_split(np.arange(len(o)), max(1, min(len(o) // 64, 8)))
     cum = np.empty((len(o), len(s), len(water.c)), np.float32)
+    spread = None
+    if forward and SPREAD_PHASE and water.small_angle is not None:
+        sa, bw = water.small_angle, water.bw
+
+        def spread(cos_psi, r):
+            return sa.spread_beta(cos_psi, r, bw)
 
     def chunk(ix):
         cum[ix] = cumulative_backscatter(o[ix], d[ix], s, tables, bw=water.bw, c=water.c, kappa_light=kappa_light,
                                          kappa_cam=kappa_cam, components=water.components, forward=forward,
-                                         surfaces=surf if shadows else None)
+                                         surfaces=surf if shadows else None, spread=spread)
 
     run(pmap, chunk, chunks)
     return cum, (len(grow), len(gcol)), gcol, grow, s
