@@ -183,7 +183,14 @@ def _water_at(scene: Scene, wl: np.ndarray, lam: np.ndarray, cutoff_rad: float, 
 #: quasi-single-scattering veil equals the traced paths of its class to 0.8 %; at 90° it is 19 % high.
 MS_CUTOFF_DEG = 30.0
 #: The quasi-single backscatter of the beam's forward-scattered light with its directions spread about the line
-#: from the light (:meth:`rigsim.preview.forward.SmallAngle.spread_beta`); False: as if it went straight on.
+#: from the light (:meth:`rigsim.preview.forward.SmallAngle.spread_beta`, checked against drawn turns in
+#: ``tests/preview/test_preview_model.py``); False: as if it went straight on (before 2026-12-04; the frozen
+#: reference of tests/preview/test_preview_speed.py).  Measured (2026-12-04): against the tracer's own class-A paths
+#: (450 nm) Jerlov 9C 0.977 → 1.019, 3C 1.009 → 1.016 (the image's sides 0.95 → 1.00, its middle 1.02–1.05: the
+#: path lengthening of the turned light is left out); in the agreement benchmark against 11–256 Monte Carlo renders
+#: the open water of Jerlov 9C around a black disk at 1 m −7.0 ± 0.7 → −4.0 ± 0.7 % and of 7C around a chart at
+#: 3 m −5.8 ± 0.4 → −3.7 ± 0.4 % (blue), the clear waters unchanged, the strobe cells beyond tolerance 4 → 2 of
+#: 2 719 (both chart patches on heavy-tailed references).
 SPREAD_PHASE = True
 #: Wide-angle scattering ``b (1 − F(30°))`` at 550 nm (1/m) from which ``multiple="auto"`` adds the
 #: multiply scattered light.  Set from the agreement benchmark without it
