@@ -100,24 +100,21 @@ engine; fractions of Monte Carlo's veil):
   (they lie in different cells of the grid), whose difference is the contrast.
 
 The agreement benchmark (``twin-strobes-45-wide``, 1 and 3 m, ``data/fast_engine/agreement.csv``;
-re-published 2026-12-04 evening against the same Monte Carlo renders, with the grid's padding, the veil
-from behind a target and the fast engine's photon noise in the standard error): 31 of 7 776 radiance cells
-beyond tolerance + t·SE (35 in the table before), 13 of them in Jerlov 9C, 6 in III, 4 in 7C, 3 in 5C,
-2 in 3C (strobes) and 3 in Jerlov I (daylight at 15 m: red patches, red band, +8 … +11 ± 2–4 %) — the open
-water of 9C at 1 m around a black disk (−7.0 ± 0.7 %, blue) and 27 chart patches, every one of them
-brighter in the fast engine (+10 … +37 %) and on a target whose Monte Carlo reference has a patch with
-one render 4.5–57× the median render (:func:`rigsim.metrics.agreement.target_tails`).  Against a second
-reference that traces the strobes' light instead (``benchmarks/bench_reference_hybrid.py``: within −7 … +6 %,
-median −0.1 %, of Monte Carlo in coastal water), the fast engine's chart of the table's own 9C case at 1 m is
-−0.3 % (median over its 72 patch cells, −11.8 … +13.7 %, 3 beyond ±10 %; the 11 cells the table's 16 renders put
-at +21 … +37 % read −6.4 … +13.7 %), a real-size chart there −4.2 %: those cells were the renders' heavy tail.
-In the table before,
-34 of its 35 cells were on such a target; the 35th was 9C's open water.  Rendered 48–64 times
-(``benchmarks/bench_reference_convergence.py``) most of them fall within the noise — III's white patch at
-3 m from +23 % to −5 ± 12 % (blue), 9C's at 1 m from +30 % to +6 ± 11 % — while a few stay above, light-tailed:
-9C's red patch at 1 m +16 ± 4 % (blue), III's neutral 8 at 3 m +8 ± 4 %.
-The fast engine's veil is low where the strobes' beams are (the image's sides) and a little high
-between them: in 9C at 1 m and 7C at 3 m by image column 0.91–0.92 of Monte Carlo at the sides,
+re-published 2026-12-04 night with every render kept and up to 256 Monte Carlo renders where the first 4 leave a
+region noisy, the daylight's sub-band reflectances and the spread directions of the beam's forward-scattered
+light, :meth:`rigsim.preview.forward.SmallAngle.spread_beta`): strobes 2 of 2 719 cells beyond tolerance + t·SE, both
+chart patches on targets whose reference is heavy-tailed (Jerlov 3C at 1 m, light skin, blue −9.3 ± 2.1 %; 9C at
+1 m, neutral 5, blue +14.3 ± 3.9 %, one render 6× the median).  Before (16 renders, 2026-12-04 evening) 31 of
+7 776 radiance cells had been beyond, 27 of them chart patches brighter in the fast engine (+10 … +37 %) on
+heavy-tailed references: with 64 renders 7 of those were left, with 256 none — the references had not converged
+(Jerlov III at 3 m: blue patch +10.1 ± 2.5 → +5.8 ± 2.0 %, orange +7.9 ± 1.8 → −2.0 ± 2.5 %, purple +6.3 ± 1.5 →
++0.2 ± 2.3 %), as the light-traced reference (``benchmarks/bench_reference_hybrid.py``: within −7 … +6 %, median
+−0.1 %, of Monte Carlo in coastal water; the fast engine's chart of the table's 9C case at 1 m −0.3 %, median of its
+72 patch cells) had said.  The open water of 9C around a black disk at 1 m went from −7.0 ± 0.7 to −4.0 ± 0.7 % and
+of 7C around a chart at 3 m from −5.8 ± 0.4 to −3.7 ± 0.4 % (blue) with the spread directions.
+Before the spread directions the fast engine's veil was low where the strobes' beams are (the image's sides)
+and a little high between them (with them, in 9C around the disk at 1 m, blue, by column group left → right
+0.94 / 0.96 / 1.02 / 0.97 / 0.98 of 40 Monte Carlo renders, from 0.91 / 0.93 / 1.00 / 0.95 / 0.95): in 9C at 1 m and 7C at 3 m by image column 0.91–0.92 of Monte Carlo at the sides,
 1.02–1.04 in the middle; the analytic class A alone is 0.95–0.98 of its traced paths at the sides (two runs)
 (``benchmarks/bench_fast_engine_split.py``).  Most of it is class B's, and it is the 16-cell grid
 and its kernel, not the estimators: in 9C open water (450 nm, 48 x 32, fractions of the every-path veil)
