@@ -134,7 +134,9 @@ def main(argv=None) -> int:
         spec = load_study(f)
         if args.renders_from is not None:
             src, dst = args.renders_from.resolve() / name / MC_RENDERS, args.out / name / MC_RENDERS
-            if src.is_dir() and not dst.exists():
+            if not src.is_dir():
+                print(f"--renders-from: no kept renders in {src}; {name} renders its own")
+            elif not dst.exists():
                 dst.parent.mkdir(parents=True, exist_ok=True)
                 dst.symlink_to(src, target_is_directory=True)
         out = run_study(spec, args.out / name, serial=args.serial)
