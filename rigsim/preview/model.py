@@ -1367,12 +1367,16 @@ SAMPLE_VEILS = True
 VEIL_BEHIND = True
 
 
+def _sinhc(x: float) -> float:
+    """``sinh(x)/x`` (1 at 0): the mean of ``e^{t}`` over ``t`` uniform in [−x, x]."""
+    return 1.0 if x < 1e-8 else float(np.sinh(x) / x)
+
+
 def _product_bias(alpha: float, beta: float) -> float:
     """Relative error of ``⟨f⟩⟨g⟩`` for ``⟨f g⟩`` where ``ln f`` and ``ln g`` spread linearly by ``alpha``
     and ``beta`` over a uniformly sampled band, the worse of the two signs: with
     ``S(x) = sinh(x)/x``, ``|S((α ± β)/2) / (S(α/2) S(β/2)) − 1|``."""
-    def S(x):
-        return 1.0 if x < 1e-8 else float(np.sinh(x) / x)
+    S = _sinhc
     den = S(alpha / 2) * S(beta / 2)
     return max(abs(S((alpha + beta) / 2) / den - 1.0), abs(S(abs(alpha - beta) / 2) / den - 1.0))
 
@@ -1381,8 +1385,7 @@ def _midpoint_bias(alpha: float, gamma: float) -> float:
     """Relative error of ``g(mid) ⟨f⟩`` for ``⟨f g⟩`` where ``ln f`` and ``ln g`` spread linearly by ``alpha``
     and ``gamma`` over a uniformly sampled band (``g`` taken at the band's middle), the worse of the two signs:
     ``|S((α ± γ)/2) / S(α/2) − 1|`` with ``S(x) = sinh(x)/x`` (about ``(2αγ + γ²)/24`` when both are small)."""
-    def S(x):
-        return 1.0 if x < 1e-8 else float(np.sinh(x) / x)
+    S = _sinhc
     return max(abs(S((alpha + gamma) / 2) / S(alpha / 2) - 1.0), abs(S(abs(alpha - gamma) / 2) / S(alpha / 2) - 1.0))
 
 

@@ -224,7 +224,7 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
     keep = None if render_cache is None else cached_render_dir(render_cache, spec, case)
 
     def mc(i):
-        f = None if keep is None else keep / f"render-{i:03d}.npz"
+        f = None if keep is None else keep / f"render-{i:03d}"
         img = None if f is None else _read_render(f, (ck.height, ck.width, len(wl)))
         if img is None:
             img = render(scene, width=ck.width, height=ck.height, spp=ck.spp, seed=(seed + 7919 * i) % 2**32,
@@ -278,38 +278,29 @@ def cached_render_dir(root, spec: StudySpec, case: Case):
     return Path(root) / f"{prefix}__{ck.width}x{ck.height}-{ck.spp}spp-{ck.integrator}__{h}"
 
 
-def _write_render(f, img) -> None:
-    import json
+def _write_render(d, img) -> None:
+    """Keep a render as :meth:`SpectralImage.save` writes it, staged so that ``spectral.npz`` arrives last."""
+    from rigsim.fileio import staged_output
 
-    from rigsim.fileio import atomic_write_npz
-
-    f.parent.mkdir(parents=True, exist_ok=True)
-    arrays = {"radiance": np.asarray(img.radiance, np.float32), "wavelength_nm": np.asarray(img.wavelength_nm),
-              "bandwidth_nm": np.asarray(img.bandwidth_nm),
-              "meta_json": np.array(json.dumps(img.meta, default=str))}
-    arrays.update({f"layer_{k}": np.asarray(v) for k, v in img.layers.items()})
-    atomic_write_npz(f, arrays)
+    with staged_output(d) as stage:
+        img.save(stage)
 
 
-def _read_render(f, shape: tuple[int, int, int]):
-    """A kept render, or None where there is none or it cannot be read (then it is rendered again)."""
-    import json
-    import zipfile
-
+def _read_render(d, shape: tuple[int, int, int]):
+    """A kept render (:meth:`SpectralImage.load`), or None where there is none or it cannot be read or is not
+    a ``shape`` render (then it is rendered again)."""
+    from rigsim.errors import ConfigError
     from rigsim.spectral_image import SpectralImage
 
-    if not f.is_file():
+    if not (d / "spectral.npz").is_file():
         return None
     try:
-        with np.load(f, allow_pickle=False) as z:
-            lay = {k[6:]: z[k] for k in z.files if k.startswith("layer_")}
-            img = SpectralImage(radiance=z["radiance"], wavelength_nm=z["wavelength_nm"],
-                                bandwidth_nm=z["bandwidth_nm"], layers=lay, meta=json.loads(str(z["meta_json"])))
-    except (OSError, ValueError, KeyError, EOFError, zipfile.BadZipFile) as exc:
-        log.warning("%s cannot be read (%s): rendering it again", f, exc)
+        img = SpectralImage.load(d)
+    except ConfigError as exc:
+        log.warning("%s: rendering it again", exc)
         return None
-    if img.radiance.shape != tuple(shape) or not np.all(np.isfinite(img.radiance)):
-        log.warning("%s is not a %s render or holds non-finite radiance: rendering it again", f, shape)
+    if img.radiance.shape != tuple(shape):
+        log.warning("%s is not a %s render: rendering it again", d, shape)
         return None
     return img
 

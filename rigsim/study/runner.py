@@ -8,10 +8,10 @@ Layout of a study folder::
     cases/<case_id>/*.png        images of that scene (per-sensor sRGB, radiance preview)
     checks/<check_id>/check.json the Monte Carlo check of a fast-engine case (region by region;
                                  rigsim.metrics.agreement), with fast.png and monte-carlo.png
-    mc-renders/<case_id>__<size>-<spp>spp-<integrator>/render-NNN.npz
-                                 each Monte Carlo render of a check as it finishes (96x64: 1.5 MB):
-                                 an interrupted check, or a check asked for more renders, renders
-                                 only the ones it lacks
+    mc-renders/<rig>__<water>__<target>__<distance>__<size>-<spp>spp-<integrator>__<key>/render-NNN/
+                                 each Monte Carlo render of a check as it finishes (SpectralImage.save;
+                                 96x64: 1.5 MB), keyed by the scene's contents: an interrupted check, or
+                                 one asked for more renders, renders only the ones it lacks
     results.csv                one row per case × sensor with every input and metric
     visibility.csv             visibility range per rig × sensor × water × target
     agreement.csv              the checks: one row per checked case × region × colour group

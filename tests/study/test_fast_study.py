@@ -119,7 +119,7 @@ def test_a_checks_monte_carlo_renders_are_kept_and_only_the_missing_ones_rendere
     case = spec.check_cases()[0]
     cache = tmp_path / "mc"
     first = compute_check(spec, case, render_cache=cache)["record"]
-    assert len(calls) == 2 and len(list(cached_render_dir(cache, spec, case).glob("render-*.npz"))) == 2
+    assert len(calls) == 2 and len(list(cached_render_dir(cache, spec, case).glob("render-*/spectral.npz"))) == 2
     again = compute_check(spec, case, render_cache=cache)["record"]
     assert len(calls) == 2, "a kept render was made again"
     assert [r["reference"] for r in again["regions"]] == [r["reference"] for r in first["regions"]]
@@ -128,7 +128,7 @@ def test_a_checks_monte_carlo_renders_are_kept_and_only_the_missing_ones_rendere
     assert more.check_id(case) != spec.check_id(case)
     assert compute_check(more, more.check_cases()[0], render_cache=cache)["record"]["seeds"] == 3
     assert len(calls) == 3, "only the third render is new"
-    f = cached_render_dir(cache, spec, case) / "render-000.npz"
+    f = cached_render_dir(cache, spec, case) / "render-000" / "spectral.npz"
     f.write_bytes(f.read_bytes()[:100])  # truncated (a full disk, a kill outside the atomic write)
     assert compute_check(spec, case, render_cache=cache)["record"]["seeds"] == 2
     assert len(calls) == 4 and calls[-1] == calls[0]  # the damaged one again, with its own seed
