@@ -266,6 +266,22 @@ KERNEL_M = 0.2
 #: -0.7 %; 5C at 1 m -3.4 / -1.9 / -0.3 -> -3.1 / -2.0 / -0.7 %.  The spread of the open water's blue
 #: mean between seeds: 9C 2.7 -> 1.5 %, 7C 2.1 -> 1.1 %, 5C 0.9 -> 0.6 %.
 KERNEL_MAX_CELLS = 1.5
+#: Smoothing length (m) of the class-B irradiance on a flat target of several pieces in one plane (a
+#: ColorChecker's 24 patches, a slanted edge's two halves): a local-quadratic kernel regression over the
+#: texture cells of all its pieces (:func:`_smooth_on_targets`), a density estimate over the target as the
+#: kernel in the water is one over the water.  Each patch's own 64 cells hold a twenty-fifth of the chart's
+#: photons, while the light that reaches it after a wide-angle scattering (or off the water after leaving
+#: the chart) changes over decimetres.  Measured 2026-12-05 (``twin-strobes-45-wide``, the chart 40 % of the
+#: field, 12 seeds of 100 000 photons; each patch's class-B irradiance, smoothed against raw, paired): Jerlov
+#: 3C at 1 m — its spread between seeds 11.5 % raw; local-linear 0.05 / 0.1 / 0.15 m: 0.78 / 0.59 / 0.52 of it,
+#: but the chart's mean −0.3 / −0.8 / −1.0 % (± 0.1–0.2; the fit's curvature bias at the chart's edges, where
+#: the light falls off); local-quadratic 0.1 / 0.15 / 0.2 m: 0.75 / 0.65 / 0.59, the chart's mean +0.06 / −0.01 /
+#: −0.06 % (± 0.15); Jerlov 9C at 1 m and III at 3 m (the chart 2.7 m wide), local-quadratic 0.2 m: 0.54 and
+#: 0.78 of the raw spread, the mean −0.16 ± 0.11 and +0.03 ± 0.05 %, each patch within its noise of its raw
+#: mean (z rms 0.8–1.2).  None: each piece's own cells.
+TARGET_KERNEL_M: float | None = 0.2
+#: Degree of the local polynomial of :data:`TARGET_KERNEL_M` (2: a quadratic field is kept exactly).
+TARGET_KERNEL_DEGREE = 2
 #: The near zone's flights are drawn from two strategies, combined by the balance heuristic (Veach &
 #: Guibas 1995): uniform in the cone that holds the zone, and — with probability
 #: :data:`NEAR_AIM_FRACTION` — aimed at a point of a disc of radius :data:`NEAR_AIM_RADIUS_M` about the
@@ -876,9 +892,90 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
     acc.flush()
     if classes == "B":
         flu /= vol[None, None, :, :, :, None]
+        if S and TARGET_KERNEL_M:
+            irr = _smooth_on_targets(irr, surf, cell_area, TARGET_KERNEL_M, TARGET_KERNEL_DEGREE)
         veil, veil_s, flu = (_smooth_in_water(a, edges, omega, cells.cell_rad) for a in (veil, veil_s, flu))
     veil, veil_s, flu = (cells.crop(a) for a in (veil, veil_s, flu))
     return _result(veil, veil_s, irr, flu, power, to_bands, edges, cols, rows, width, height, photons, n_vert, t0)
+
+
+def _target_planes(surf: SceneSurfaces) -> list[tuple[np.ndarray, np.ndarray]]:
+    """The flat targets of several pieces in one plane: ``(fitted, evaluated)`` surface indices (0-based) per
+    target.  Fitted: its rectangles and disks in one plane that no other piece of it covers (a ColorChecker's
+    patches); evaluated: those and its pieces in parallel planes within 1 cm behind them (the chart's body,
+    whose own cells mix its lit gaps with the dark under the patches).  Meshes and targets of one piece are
+    left alone."""
+    out = []
+    key = [lab.split(":")[0] for lab in surf.labels]
+    for name in dict.fromkeys(key):
+        ks = np.array([k for k in range(len(surf)) if key[k] == name and not surf.is_mesh[k]], np.int64)
+        if ks.size < 2:
+            continue
+        n0 = surf.normal[ks[0]]
+        if not np.all(np.abs(surf.normal[ks] @ n0) > 1 - 1e-6):
+            continue
+        off = surf.center[ks] @ n0  # along the normal (towards the camera: the seen side)
+        covered = np.zeros(ks.size, bool)
+        for i, k in enumerate(ks):
+            if surf.is_disk[k]:
+                continue
+            rel = surf.center[ks] - surf.center[k]
+            a, b = rel @ surf.u[k], rel @ surf.v[k]
+            inside = (np.abs(a) < surf.half_size[k, 0]) & (np.abs(b) < surf.half_size[k, 1])
+            covered[i] = np.any(inside & (np.arange(ks.size) != i) & (np.abs(off - off[i]) > 1e-9)
+                                & (np.abs(off - off[i]) < 0.01))
+        fit = ks[~covered]
+        if fit.size < 2 or np.ptp(off[~covered]) > 1e-6:
+            continue
+        out.append((fit, ks))
+    return out
+
+
+def _smooth_on_targets(irr: np.ndarray, surf: SceneSurfaces, cell_area: np.ndarray, sigma_m: float,
+                       degree: int = 1) -> np.ndarray:
+    """:data:`TARGET_KERNEL_M`: the class-B irradiance ``irr`` (…, S, TEXTURE, TEXTURE, B) of each flat target
+    of several pieces (:func:`_target_planes`) replaced, at every texture cell of its pieces, by a local
+    polynomial regression of ``degree`` (Gaussian weights of standard deviation ``sigma_m`` in the plane, times
+    the cells' areas) over the cells of its uncovered pieces.  A local polynomial, not a plain kernel average:
+    the field's gradient (degree 1) and curvature (2) across the target are kept, at its edges too, where a
+    kernel average is biased by the side it lacks (Fan & Gijbels 1996, *Local Polynomial Modelling and Its
+    Applications*, Chapman & Hall).  Linear in ``irr`` (but for a floor at zero): the batches' mean stays the
+    mean of the smoothed batches."""
+    groups = _target_planes(surf)
+    if not groups:
+        return irr
+    out = irr.copy()
+    g = (np.arange(TEXTURE) + 0.5) / TEXTURE * 2 - 1
+    for fit, ev in groups:
+        k0 = fit[0]
+
+        def centres(ks):  # (len(ks) · T², 2) cell centres in the plane (m), about the first fitted piece
+            hw, hh = _texture_half_sizes(surf, ks)
+            p = (surf.center[ks][:, None, None, :] + (hw[:, None, None, None] * g[None, :, None, None]) * surf.u[ks][:, None, None, :]
+                 + (hh[:, None, None, None] * g[None, None, :, None]) * surf.v[ks][:, None, None, :])
+            rel = p.reshape(-1, 3) - surf.center[k0]
+            return np.stack([rel @ surf.u[k0], rel @ surf.v[k0]], axis=-1)
+
+        xf, xe = centres(fit), centres(ev)
+        area = cell_area[fit].reshape(-1)
+        w_a = np.where(np.isfinite(area), area, 0.0)
+        dx = xf[None, :, :] - xe[:, None, :]  # (n_eval, n_fit, 2)
+        w = w_a[None, :] * np.exp(-0.5 * np.sum(dx * dx, axis=-1) / sigma_m ** 2)
+        cols = [np.ones(dx.shape[:2]), dx[..., 0], dx[..., 1]]
+        if degree >= 2:
+            cols += [dx[..., 0] ** 2, dx[..., 0] * dx[..., 1], dx[..., 1] ** 2]
+        X = np.stack(cols, axis=-1)  # (n_eval, n_fit, p)
+        p = X.shape[-1]
+        M = np.einsum("enk,en,enl->ekl", X, w, X)  # (n_eval, p, p)
+        M += np.eye(p)[None] * 1e-12 * np.trace(M, axis1=1, axis2=2)[:, None, None]
+        row = np.linalg.solve(M, np.broadcast_to(np.eye(p)[0], (M.shape[0], p))[..., None])[..., 0]  # e1ᵀ M⁻¹
+        lmat = np.einsum("ek,enk,en->en", row, X, w)  # (n_eval, n_fit): value at each evaluated cell
+        lead = irr.shape[:-4]
+        src = irr[..., fit, :, :, :].reshape(lead + (fit.size * TEXTURE * TEXTURE, irr.shape[-1]))
+        res = np.einsum("en,...nb->...eb", lmat, src)
+        # (a local-linear fit can dip below zero at an edge where the photons' noise tilts it: no light is negative)
+        out[..., ev, :, :, :] = np.maximum(res, 0.0).reshape(lead + (ev.size, TEXTURE, TEXTURE, irr.shape[-1]))
+    return out
 
 
 class _SurfaceNEE:

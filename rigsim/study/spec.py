@@ -388,7 +388,7 @@ class CheckTable(FileModel):
     height: _ImageSide = 64
     spp: _Spp = 256
     seeds: Annotated[Int, Field(ge=2, le=64)] = 4
-    max_seeds: Annotated[Int, Field(ge=2, le=256)] | None = None
+    max_seeds: Annotated[Int, Field(ge=2, le=1024)] | None = None
     target_se: Annotated[Real, Field(gt=0.0, le=1.0)] = 0.015
     integrator: _Integrator = "rigsim"
 
