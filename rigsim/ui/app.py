@@ -543,9 +543,15 @@ class RigDesigner:
             if value is not None:
                 self.state[key] = value
 
+    def _shown(self, **shown) -> dict:
+        """The values a button's page showed when it was clicked (sent with the click), else the server's,
+        without writing them back: a value the server sets is sent to the page, and one that arrives after the
+        person has typed on (a busy server) overwrote the field with what they had typed before (seen: the
+        name of the previous "save as" put back after a new one was typed, and saved again)."""
+        return {key: (value if value is not None else self.state[key]) for key, value in shown.items()}
+
     def load_rig(self, file_sel=None):
-        self._clicked(file_sel=file_sel)
-        sel = self.state.file_sel
+        sel = self._shown(file_sel=file_sel)["file_sel"]
         try:
             if not sel or "/" not in str(sel):
                 raise ConfigError("choose a rig file first", field="file")
@@ -565,19 +571,20 @@ class RigDesigner:
         self._changed()
 
     def save_rig(self, save_name=None, save_folder=None, save_overwrite=None):
-        self._clicked(save_name=save_name, save_folder=save_folder, save_overwrite=save_overwrite)
+        shown = self._shown(save_name=save_name, save_folder=save_folder, save_overwrite=save_overwrite)
         s = self.state
         try:
-            folder = s.save_folder if s.save_folder in self.sandbox.folders else None
+            folder = shown["save_folder"] if shown["save_folder"] in self.sandbox.folders else None
             if folder is None:
                 raise ConfigError("choose a folder", field="folder", allowed=", ".join(self.sandbox.folders))
-            target = self.sandbox.resolve(str(s.save_name or ""), folder=folder)
+            target = self.sandbox.resolve(str(shown["save_name"] or ""), folder=folder)
             doc = self.doc.relocated(target.parent, target.name)
             doc.rig()  # still valid from its new home (relative CSV paths)
             text = doc.to_toml(header=f"{doc.name}: saved by the rigsim rig designer.\n"
                                       "Format: rigs/README.md (frames: light positions [right, up, forward] in m).")
             RigDoc.loads(text, source=target.name, base_dir=target.parent)  # round trip before writing
-            path = self.sandbox.write_text(str(s.save_name), text, folder=folder, overwrite=bool(s.save_overwrite))
+            path = self.sandbox.write_text(str(shown["save_name"]), text, folder=folder,
+                                           overwrite=bool(shown["save_overwrite"]))
         except ConfigError as exc:
             s.file_message, s.file_message_type = f"Refused: {exc}", "error"
             return
