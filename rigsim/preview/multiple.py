@@ -37,7 +37,12 @@ densities the path would have had with every other hero, so no band's weight is 
   scene), for about the same time.
 * **Targets** — a class-B photon that reaches a target deposits its flux in a cell of the
   surface's texture (irradiance, W/m²); the fast engine lights the target with it (``ρ/π E``, seen
-  through the water like the target's direct light).
+  through the water like the target's direct light).  On a flat target of several pieces (a
+  ColorChecker's 24 patches) the cells of all its pieces are pooled by a local-quadratic regression
+  over its plane (:data:`TARGET_KERNEL_M`, a kernel on the target as :data:`KERNEL_M` is one in the
+  water): a patch's own cells hold a twenty-fifth of the chart's photons, and in Jerlov 3C at 1 m their
+  noise had put a patch 9 % below Monte Carlo (light skin, −9.3 ± 2.1 %; over 16 seeds of the fast engine
+  −4.6 ± 1.9 %).
 * **Path classes** — a path is class A (left to the analytic model) while it has no scattering by
   more than ψ_c and no surface: its surface hit, and its vertices whose scattering towards the
   camera is by more than ψ_c, are not counted; every other vertex and surface hit is.  Every path
@@ -932,7 +937,7 @@ def _target_planes(surf: SceneSurfaces) -> list[tuple[np.ndarray, np.ndarray]]:
 
 
 def _smooth_on_targets(irr: np.ndarray, surf: SceneSurfaces, cell_area: np.ndarray, sigma_m: float,
-                       degree: int = 1) -> np.ndarray:
+                       degree: int = 2) -> np.ndarray:
     """:data:`TARGET_KERNEL_M`: the class-B irradiance ``irr`` (…, S, TEXTURE, TEXTURE, B) of each flat target
     of several pieces (:func:`_target_planes`) replaced, at every texture cell of its pieces, by a local
     polynomial regression of ``degree`` (Gaussian weights of standard deviation ``sigma_m`` in the plane, times
@@ -957,23 +962,29 @@ def _smooth_on_targets(irr: np.ndarray, surf: SceneSurfaces, cell_area: np.ndarr
             return np.stack([rel @ surf.u[k0], rel @ surf.v[k0]], axis=-1)
 
         xf, xe = centres(fit), centres(ev)
+        o = xf.mean(axis=0)
+        xf, xe = (xf - o) / sigma_m, (xe - o) / sigma_m  # in kernel widths about the fitted cells' middle
+
+        def basis(x):  # the polynomials of ``degree`` in the plane (the same space about any point)
+            cols = [np.ones(len(x)), x[:, 0], x[:, 1]]
+            if degree >= 2:
+                cols += [x[:, 0] ** 2, x[:, 0] * x[:, 1], x[:, 1] ** 2]
+            return np.stack(cols, axis=-1)
+
         area = cell_area[fit].reshape(-1)
         w_a = np.where(np.isfinite(area), area, 0.0)
-        dx = xf[None, :, :] - xe[:, None, :]  # (n_eval, n_fit, 2)
-        w = w_a[None, :] * np.exp(-0.5 * np.sum(dx * dx, axis=-1) / sigma_m ** 2)
-        cols = [np.ones(dx.shape[:2]), dx[..., 0], dx[..., 1]]
-        if degree >= 2:
-            cols += [dx[..., 0] ** 2, dx[..., 0] * dx[..., 1], dx[..., 1] ** 2]
-        X = np.stack(cols, axis=-1)  # (n_eval, n_fit, p)
-        p = X.shape[-1]
-        M = np.einsum("enk,en,enl->ekl", X, w, X)  # (n_eval, p, p)
+        d2 = np.sum(xe ** 2, axis=1)[:, None] + np.sum(xf ** 2, axis=1)[None, :] - 2.0 * xe @ xf.T
+        w = w_a[None, :] * np.exp(-0.5 * np.maximum(d2, 0.0))  # (n_eval, n_fit)
+        Xf, Xe = basis(xf), basis(xe)  # (n_fit, p), (n_eval, p)
+        p = Xf.shape[1]
+        M = (w @ (Xf[:, :, None] * Xf[:, None, :]).reshape(-1, p * p)).reshape(-1, p, p)  # Σ_n w X Xᵀ per cell
         M += np.eye(p)[None] * 1e-12 * np.trace(M, axis1=1, axis2=2)[:, None, None]
-        row = np.linalg.solve(M, np.broadcast_to(np.eye(p)[0], (M.shape[0], p))[..., None])[..., 0]  # e1ᵀ M⁻¹
-        lmat = np.einsum("ek,enk,en->en", row, X, w)  # (n_eval, n_fit): value at each evaluated cell
+        r = np.linalg.solve(M, Xe[..., None])[..., 0]  # (n_eval, p): M⁻¹ X(x_e)
+        lmat = w * (r @ Xf.T)  # (n_eval, n_fit): the fitted value at each evaluated cell
         lead = irr.shape[:-4]
         src = irr[..., fit, :, :, :].reshape(lead + (fit.size * TEXTURE * TEXTURE, irr.shape[-1]))
-        res = np.einsum("en,...nb->...eb", lmat, src)
-        # (a local-linear fit can dip below zero at an edge where the photons' noise tilts it: no light is negative)
+        res = np.matmul(lmat, src)
+        # (a local fit can dip below zero at an edge where the photons' noise tilts it: no light is negative)
         out[..., ev, :, :, :] = np.maximum(res, 0.0).reshape(lead + (ev.size, TEXTURE, TEXTURE, irr.shape[-1]))
     return out
 
