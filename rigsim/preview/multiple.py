@@ -898,18 +898,18 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
     if classes == "B":
         flu /= vol[None, None, :, :, :, None]
         if S and TARGET_KERNEL_M:
-            irr = _smooth_on_targets(irr, surf, cell_area, TARGET_KERNEL_M, TARGET_KERNEL_DEGREE)
+            irr = _smooth_on_targets(irr, surf, cell_area, TARGET_KERNEL_M, TARGET_KERNEL_DEGREE, pupil=pupil)
         veil, veil_s, flu = (_smooth_in_water(a, edges, omega, cells.cell_rad) for a in (veil, veil_s, flu))
     veil, veil_s, flu = (cells.crop(a) for a in (veil, veil_s, flu))
     return _result(veil, veil_s, irr, flu, power, to_bands, edges, cols, rows, width, height, photons, n_vert, t0)
 
 
-def _target_planes(surf: SceneSurfaces) -> list[tuple[np.ndarray, np.ndarray]]:
+def _target_planes(surf: SceneSurfaces, pupil: np.ndarray) -> list[tuple[np.ndarray, np.ndarray]]:
     """The flat targets of several pieces in one plane: ``(fitted, evaluated)`` surface indices (0-based) per
     target.  Fitted: its rectangles and disks in one plane that no other piece of it covers (a ColorChecker's
-    patches); evaluated: those and its pieces in parallel planes within 1 cm behind them (the chart's body,
-    whose own cells mix its lit gaps with the dark under the patches).  Meshes and targets of one piece are
-    left alone."""
+    patches); evaluated: those and its pieces in parallel planes within 1 cm behind them, seen from ``pupil``
+    (the chart's body, whose own cells mix its lit gaps with the dark under the patches).  Meshes and targets
+    of one piece are left alone."""
     out = []
     key = [lab.split(":")[0] for lab in surf.labels]
     for name in dict.fromkeys(key):
@@ -919,7 +919,9 @@ def _target_planes(surf: SceneSurfaces) -> list[tuple[np.ndarray, np.ndarray]]:
         n0 = surf.normal[ks[0]]
         if not np.all(np.abs(surf.normal[ks] @ n0) > 1 - 1e-6):
             continue
-        off = surf.center[ks] @ n0  # along the normal (towards the camera: the seen side)
+        if np.dot(n0, np.asarray(pupil, float) - surf.center[ks[0]]) < 0:
+            n0 = -n0
+        off = surf.center[ks] @ n0  # along the normal towards the camera: larger is nearer
         covered = np.zeros(ks.size, bool)
         for i, k in enumerate(ks):
             if surf.is_disk[k]:
@@ -927,8 +929,7 @@ def _target_planes(surf: SceneSurfaces) -> list[tuple[np.ndarray, np.ndarray]]:
             rel = surf.center[ks] - surf.center[k]
             a, b = rel @ surf.u[k], rel @ surf.v[k]
             inside = (np.abs(a) < surf.half_size[k, 0]) & (np.abs(b) < surf.half_size[k, 1])
-            covered[i] = np.any(inside & (np.arange(ks.size) != i) & (np.abs(off - off[i]) > 1e-9)
-                                & (np.abs(off - off[i]) < 0.01))
+            covered[i] = np.any(inside & (off - off[i] > 1e-9) & (off - off[i] < 0.01))  # another piece in front
         fit = ks[~covered]
         if fit.size < 2 or np.ptp(off[~covered]) > 1e-6:
             continue
@@ -937,7 +938,7 @@ def _target_planes(surf: SceneSurfaces) -> list[tuple[np.ndarray, np.ndarray]]:
 
 
 def _smooth_on_targets(irr: np.ndarray, surf: SceneSurfaces, cell_area: np.ndarray, sigma_m: float,
-                       degree: int = 2) -> np.ndarray:
+                       degree: int = 2, *, pupil: np.ndarray) -> np.ndarray:
     """:data:`TARGET_KERNEL_M`: the class-B irradiance ``irr`` (…, S, TEXTURE, TEXTURE, B) of each flat target
     of several pieces (:func:`_target_planes`) replaced, at every texture cell of its pieces, by a local
     polynomial regression of ``degree`` (Gaussian weights of standard deviation ``sigma_m`` in the plane, times
@@ -946,7 +947,7 @@ def _smooth_on_targets(irr: np.ndarray, surf: SceneSurfaces, cell_area: np.ndarr
     kernel average is biased by the side it lacks (Fan & Gijbels 1996, *Local Polynomial Modelling and Its
     Applications*, Chapman & Hall).  Linear in ``irr`` (but for a floor at zero): the batches' mean stays the
     mean of the smoothed batches."""
-    groups = _target_planes(surf)
+    groups = _target_planes(surf, pupil)
     if not groups:
         return irr
     out = irr.copy()

@@ -542,11 +542,18 @@ def test_the_targets_smoothing_keeps_a_linear_field_and_lights_the_charts_body_f
     (the reason for degree 2: the chart's light falls off towards its edges); a disk (one piece) is left as it
     is.  A field of independent per-cell noise about a constant comes out within its noise of the constant and
     much smoother."""
-    from rigsim.preview.multiple import TARGET_KERNEL_DEGREE, TARGET_KERNEL_M, TEXTURE, _cell_areas, _smooth_on_targets
+    from rigsim.preview.multiple import (TARGET_KERNEL_DEGREE, TARGET_KERNEL_M, TEXTURE, _cell_areas,
+                                         _smooth_on_targets, _target_planes)
 
     scene = _scene(target="colorchecker", distance=1.0)
     surf = scene_surfaces(scene)
+    pupil = scene.camera.position_m
     assert len(surf) == 25 and surf.labels[0].endswith(": chart")
+    ((fit, ev),) = _target_planes(surf, pupil)  # fitted on the 24 patches (in front), evaluated on the body too
+    assert list(fit) == list(range(1, 25)) and list(ev) == list(range(25))
+    edge = scene_surfaces(_scene(target="slanted-edge"))
+    ((fit_e, ev_e),) = _target_planes(edge, pupil)
+    assert list(fit_e) == list(ev_e) == [0, 1]  # two halves side by side: both fitted
     g = (np.arange(TEXTURE) + 0.5) / TEXTURE * 2 - 1
     pts = (surf.center[:, None, None, :] + surf.half_size[:, 0, None, None, None] * g[None, :, None, None] * surf.u[:, None, None, :]
            + surf.half_size[:, 1, None, None, None] * g[None, None, :, None] * surf.v[:, None, None, :])
@@ -557,19 +564,19 @@ def test_the_targets_smoothing_keeps_a_linear_field_and_lights_the_charts_body_f
     irr[0] *= 1 / 3  # the body's own cells
     areas = _cell_areas(surf)
     sig, deg = TARGET_KERNEL_M, TARGET_KERNEL_DEGREE
-    out = _smooth_on_targets(irr[None], surf, areas, sig, deg)[0]
+    out = _smooth_on_targets(irr[None], surf, areas, sig, deg, pupil=pupil)[0]
     want = field[..., None] * np.array([1.0, 0.5])
     assert np.max(np.abs(out - want)) < 1e-6 * np.max(want)
     bowl = (2.0 - 8.0 * x ** 2 - 12.0 * y ** 2)[..., None]  # falls to 0.5–0.7 of its middle at the chart's edges
     assert np.min(bowl) > 0.3
     quad = bowl.copy()
     quad[0] *= 1 / 3
-    assert np.max(np.abs(_smooth_on_targets(quad[None], surf, areas, sig, deg)[0] - bowl)) < 1e-6 * 2.0
-    assert np.max(np.abs(_smooth_on_targets(quad[None], surf, areas, sig, 1)[0] - bowl)) > 0.02 * 2.0
+    assert np.max(np.abs(_smooth_on_targets(quad[None], surf, areas, sig, deg, pupil=pupil)[0] - bowl)) < 1e-6 * 2.0
+    assert np.max(np.abs(_smooth_on_targets(quad[None], surf, areas, sig, 1, pupil=pupil)[0] - bowl)) > 0.02 * 2.0
 
     rng = np.random.default_rng(3)
     noisy = 2.0 * (1 + 0.3 * rng.standard_normal((25, TEXTURE, TEXTURE, 1)))
-    sm = _smooth_on_targets(noisy[None], surf, areas, sig, deg)[0]
+    sm = _smooth_on_targets(noisy[None], surf, areas, sig, deg, pupil=pupil)[0]
     patch_means = sm[1:].mean(axis=(1, 2, 3))
     assert np.all(np.abs(patch_means - 2.0) < 0.05 * 2.0), patch_means  # raw patch means: ±0.3·2/8 = 3.75 % s.d.
     assert sm[1:].std() < 0.2 * noisy[1:].std()
@@ -577,7 +584,7 @@ def test_the_targets_smoothing_keeps_a_linear_field_and_lights_the_charts_body_f
     disk = _scene(target="black-disk")
     ds = scene_surfaces(disk)
     d_irr = rng.random((1, len(ds), TEXTURE, TEXTURE, 1))
-    assert np.array_equal(_smooth_on_targets(d_irr, ds, _cell_areas(ds), sig, deg), d_irr)
+    assert np.array_equal(_smooth_on_targets(d_irr, ds, _cell_areas(ds), sig, deg, pupil=pupil), d_irr)
 
 
 def test_the_targets_smoothing_leaves_the_charts_class_b_light_and_takes_most_of_its_noise(monkeypatch):
@@ -600,7 +607,7 @@ def test_the_targets_smoothing_leaves_the_charts_class_b_light_and_takes_most_of
     for seed in range(10):
         ms = trace_multiple(scene, surf, list(scene.lights), wl, photons=50_000, seed=seed, **kw)
         raw.append(ms.irradiance[1:].mean(axis=(1, 2)))  # (24, B)
-        sm.append(mu._smooth_on_targets(ms.irradiance[None], surf, areas, sig, deg)[0, 1:].mean(axis=(1, 2)))
+        sm.append(mu._smooth_on_targets(ms.irradiance[None], surf, areas, sig, deg, pupil=scene.camera.position_m)[0, 1:].mean(axis=(1, 2)))
     raw, sm = np.array(raw), np.array(sm)  # (seeds, 24, B)
     assert abs(sm.mean() / raw.mean() - 1) < 0.01
     d = sm / raw.mean(axis=0) - raw / raw.mean(axis=0)
