@@ -152,7 +152,7 @@ def main(argv=None) -> int:
           f"checked cases in {time.perf_counter() - t0:.0f} s; Monte Carlo: {args.seeds} x {args.spp} paths per pixel at "
           f"{w}x{h} (up to {max(args.seeds, args.max_seeds)} renders where the first {args.seeds} leave a relative SE "
           f"above {args.target_se:.1%} in a tenth of the regions"
-          + (f"; daylight {args.daylight_target_se:.1%}" if args.daylight_target_se is not None and args.depths else "")
+          + (f"; daylight {args.daylight_target_se:.2%}" if args.daylight_target_se is not None and args.depths else "")
           + ")\n")
     print_table(rows)
     if args.publish:
