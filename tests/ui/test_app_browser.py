@@ -123,17 +123,21 @@ def _save_as(page, name: str, outcome: str, server: dict) -> None:
     field = page.locator("#save-name")
     field.fill(name)
     assert field.input_value() == name
-    try:
+    held = "(s) => window.trame ? window.trame.state.get('save_name') : null"
+    try:  # the click carries the page's state, not the field's text: wait until the state holds the name
+        page.wait_for_function(f"(n) => ({held})() === n", arg=name, timeout=10_000)
         page.wait_for_function(_SENT_JS, timeout=10_000)
     except Exception:
-        pass  # still pending after 10 s: click anyway (the click carries the name)
+        pass  # still pending after 10 s: click anyway (the failure below says what the page held)
+    before_click = page.evaluate(held)
     page.locator("#save-btn").click()
     try:
         _wait_text(page, "#file-message", outcome, name, timeout_s=45)
     except AssertionError as exc:
         log = server["work"].parent / "app.log"
         tail = log.read_text(errors="replace")[-4000:] if log.is_file() else "(no log)"
-        raise AssertionError(f"{exc}; the field shows {field.input_value()!r}; the app's log ends:\n{tail}") from None
+        raise AssertionError(f"{exc}; the field shows {field.input_value()!r}; the page's state held {before_click!r} "
+                             f"at the click and {page.evaluate(held)!r} now; the app's log ends:\n{tail}") from None
 
 
 def _number(text: str) -> float:
