@@ -82,6 +82,17 @@ def _list(text: str) -> list[str]:
     return [x.strip() for x in text.split(",") if x.strip()]
 
 
+def _fraction(text: str) -> float:
+    """A relative standard error on the command line: a number in (0, 1] (else argparse's usage line)."""
+    try:
+        x = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not 0.0 < x <= 1.0:
+        raise argparse.ArgumentTypeError(f"{text} is not in (0, 1]")
+    return x
+
+
 def main(argv=None) -> int:
     from rigsim.water import JERLOV_TYPES, ORIGINAL_PRESETS
 
@@ -96,8 +107,8 @@ def main(argv=None) -> int:
     ap.add_argument("--max-seeds", type=int, default=16,
                     help="two stages: as many more renders as bring the pilot's regions' relative SE (90th "
                          "percentile) to --target-se, up to this many in all (= --seeds: one stage)")
-    ap.add_argument("--target-se", type=float, default=0.015, help="the reference's relative SE aimed at")
-    ap.add_argument("--daylight-target-se", type=float, default=None,
+    ap.add_argument("--target-se", type=_fraction, default=0.015, help="the reference's relative SE aimed at")
+    ap.add_argument("--daylight-target-se", type=_fraction, default=None,
                     help="the same for the daylight cases (default: --target-se).  Their renders are cheap (a 96x64 "
                          "render of 32 paths per pixel in 0.2 s against 2-4 s for strobes in turbid water): 0.005 gives "
                          "them 30-200 renders each")

@@ -538,7 +538,8 @@ class RigDesigner:
 
         The page defers its own state updates while a request is in flight but sends a click at
         once, so a name typed just before clicking Save could reach the server after the click:
-        the click carries the values it acts on, and the server's state is brought in line."""
+        the click carries the values it acts on, and the server's state is brought in line (for values the
+        rest of the page follows, as the selected light; Save and Load only read theirs: :meth:`_shown`)."""
         for key, value in shown.items():
             if value is not None:
                 self.state[key] = value

@@ -123,9 +123,10 @@ def _save_as(page, name: str, outcome: str, server: dict) -> None:
     field = page.locator("#save-name")
     field.fill(name)
     assert field.input_value() == name
-    held = "(s) => window.trame ? window.trame.state.get('save_name') : null"
+    held = "() => window.trame ? window.trame.state.get('save_name') : null"
     try:  # the click carries the page's state, not the field's text: wait until the state holds the name
-        page.wait_for_function(f"(n) => ({held})() === n", arg=name, timeout=10_000)
+        page.wait_for_function("(n) => window.trame && window.trame.state.get('save_name') === n", arg=name,
+                               timeout=10_000)
         page.wait_for_function(_SENT_JS, timeout=10_000)
     except Exception:
         pass  # still pending after 10 s: click anyway (the failure below says what the page held)
