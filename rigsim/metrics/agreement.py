@@ -356,13 +356,14 @@ def compare_renders(fast, references: list, target_kind: str, *,
 # ---------------------------------------------------------------------------- the published table
 @dataclass(frozen=True)
 class PublishedAgreement:
-    """The benchmark's summary for one water and lighting (``data/fast_engine/agreement.csv``).
+    """The benchmark's summary for one water, lighting and rig (``data/fast_engine/agreement.csv``).
 
-    ``worst_deviation`` is the largest fast / Monte Carlo − 1 over the water's checked regions and
-    colour groups (``worst_where`` says which), ± ``worst_se``; ``cases`` checked cases at
+    ``worst_deviation`` is the largest fast / Monte Carlo − 1 over the checked regions and colour groups of
+    this water with this rig (``worst_where`` says which), ± ``worst_se``; ``cases`` checked cases at
     ``distances_m``; ``beyond`` of ``cells`` region values differed by more than the tolerance plus
     the difference's confidence half-width (:func:`verdict`: the reference's noise and, since the table of
     2026-12-04 evening, the fast engine's own photon noise; the tables before counted the reference's alone).
+    ``rig`` is the shipped rig the cases used (empty in tables before 2026-12-05, which summed over rigs).
     """
 
     lighting: str
@@ -377,22 +378,37 @@ class PublishedAgreement:
     cells: int
     measured: str
     settings: str
+    rig: str = ""
 
-    def sentence(self) -> str:
-        """One line for a user: how far the fast engine's picture of this water is from Monte Carlo."""
+    def sentence(self, rig: str | None = None) -> str:
+        """One line for a user: how far the fast engine's picture of this water is from Monte Carlo.
+
+        ``rig``: the rig the user looks at; if it is not the one measured, the line says so."""
         tail = (f"; {self.beyond} of {self.cells} region values beyond ±{self.tolerance:.0%}" if self.beyond
                 else f", all within ±{self.tolerance:.0%} or the reference's noise")
-        return (f"fast engine vs Monte Carlo in {self.water} ({self.lighting}, {self.cases} cases at "
+        which = f"{self.lighting}, {self.rig}, " if self.rig else f"{self.lighting}, "
+        other = (f" (not checked with {rig}: these numbers are the {self.rig} rig's)"
+                 if rig and self.rig and rig != self.rig else "")
+        return (f"fast engine vs Monte Carlo in {self.water} ({which}{self.cases} cases at "
                 f"{self.distances_m} m): worst region {self.worst_deviation:+.1%} ± {self.worst_se:.1%} "
-                f"({self.worst_where}){tail} — measured {self.measured}")
+                f"({self.worst_where}){tail} — measured {self.measured}{other}")
 
 
 #: The published summary (in ``data/``): written by ``benchmarks/bench_fast_engine_agreement.py --publish``.
 PUBLISHED_TABLE = "fast_engine/agreement.csv"
 
 
-def published_agreement(water_name: str, lighting: str = "strobes") -> PublishedAgreement | None:
-    """The benchmark's summary for a water (None if the benchmark did not measure it)."""
+def _distances_text(v) -> str:
+    """The ``distances_m`` column as written ("1, 3"; a single distance is read back as a number)."""
+    return f"{float(v):g}" if isinstance(v, (int, float, np.floating)) else str(v)
+
+
+def published_agreement(water_name: str, lighting: str = "strobes", rig: str | None = None) -> PublishedAgreement | None:
+    """The benchmark's summary for a water (None if the benchmark did not measure it).
+
+    With ``rig``, that rig's row if the benchmark checked it; otherwise (or without ``rig``) the water's row
+    whose worst region is farthest from Monte Carlo over the rigs it checked — the cautious answer for a rig
+    it did not."""
     from rigsim.data import DATA_DIR, read_csv_table
     from rigsim.errors import DataError
 
@@ -401,20 +417,26 @@ def published_agreement(water_name: str, lighting: str = "strobes") -> Published
     except (OSError, DataError):
         return None
     cols = t.columns
+    found = []
     for i in range(len(cols["water"])):
         if cols["water"][i] == water_name and cols["lighting"][i] == lighting:
-            return PublishedAgreement(
+            found.append(PublishedAgreement(
                 lighting=str(cols["lighting"][i]), water=str(cols["water"][i]), cases=int(cols["cases"][i]),
-                distances_m=str(cols["distances_m"][i]), worst_deviation=float(cols["worst_deviation"][i]),
+                distances_m=_distances_text(cols["distances_m"][i]), worst_deviation=float(cols["worst_deviation"][i]),
                 worst_se=float(cols["worst_se"][i]), worst_where=str(cols["worst_where"][i]),
                 tolerance=float(cols["tolerance"][i]), beyond=int(cols["beyond"][i]), cells=int(cols["cells"][i]),
-                measured=str(cols["measured"][i]), settings=str(cols["settings"][i]))
-    return None
+                measured=str(cols["measured"][i]), settings=str(cols["settings"][i]),
+                rig=str(cols["rig"][i]) if "rig" in cols else ""))
+    same = [p for p in found if rig and p.rig == rig]
+    if same:
+        return same[0]
+    return max(found, key=lambda p: abs(p.worst_deviation), default=None)
 
 
 def write_published(rows: list[dict], path, *, settings: str) -> None:
-    """Write the per-lighting, per-water summary of agreement rows (``agreement.csv`` of studies,
-    plus a ``lighting`` column) to ``path`` (atomically), keeping other waters already there."""
+    """Write the per-lighting, per-water, per-rig summary of agreement rows (``agreement.csv`` of studies,
+    plus a ``lighting`` column) to ``path`` (atomically), keeping the other waters and rigs already there
+    (rows of the older tables without a ``rig`` column, which summed over rigs, are dropped)."""
     import csv
     import datetime
     import io
@@ -424,31 +446,32 @@ def write_published(rows: list[dict], path, *, settings: str) -> None:
     from rigsim.fileio import atomic_write_text
 
     path = Path(path)
-    old: dict[tuple[str, str], dict] = {}
+    old: dict[tuple[str, str, str], dict] = {}
     if path.is_file():
         with open(path, newline="") as fh:
             lines = [ln for ln in fh if not ln.startswith("#")]
-        old = {(r["lighting"], r["water"]): r for r in csv.DictReader(lines)}
+        old = {(r["lighting"], r["water"], r["rig"]): r for r in csv.DictReader(lines) if r.get("rig")}
     by = defaultdict(list)
     for r in rows:
         if r["quantity"] == "radiance":
-            by[(r.get("lighting", "strobes"), r["water"])].append(r)
+            by[(r.get("lighting", "strobes"), r["water"], r["rig"])].append(r)
     today = datetime.date.today().isoformat()
-    for (light, water), rs in by.items():
+    for (light, water, rig), rs in by.items():
         w = max(rs, key=lambda r: abs(float(r["deviation"])))
         cases = {(r["rig"], r["target"], float(r["distance_m"])) for r in rs}
-        old[(light, water)] = {
-            "lighting": light, "water": water, "cases": len(cases),
+        old[(light, water, rig)] = {
+            "lighting": light, "water": water, "rig": rig, "cases": len(cases),
             "distances_m": ", ".join(f"{d:g}" for d in sorted({c[2] for c in cases})),
             "worst_deviation": f"{float(w['deviation']):.4f}", "worst_se": f"{float(w['deviation_se']):.4f}",
-            "worst_where": f"{w['region'].replace('patch:', '')}, {w['group']}, {w['rig']}, {w['target']} at "
+            "worst_where": f"{w['region'].replace('patch:', '')}, {w['group']}, {w['target']} at "
                            f"{float(w['distance_m']):g} m",
             "tolerance": w["tolerance"], "beyond": sum(r["verdict"] == "disagrees" for r in rs), "cells": len(rs),
             "measured": today, "settings": settings}
-    cols = ["lighting", "water", "cases", "distances_m", "worst_deviation", "worst_se", "worst_where", "tolerance",
+    cols = ["lighting", "water", "rig", "cases", "distances_m", "worst_deviation", "worst_se", "worst_where", "tolerance",
             "beyond", "cells", "measured", "settings"]
     buf = io.StringIO()
-    buf.write("# The fast engine against Monte Carlo, per water: benchmarks/bench_fast_engine_agreement.py --publish\n"
+    buf.write("# The fast engine against Monte Carlo, per water and rig: benchmarks/bench_fast_engine_agreement.py "
+              "--publish\n"
               "# (rigsim.metrics.agreement); deviations are fast / Monte Carlo - 1 of region means (fractions)\n")
     wr = csv.DictWriter(buf, fieldnames=cols, lineterminator="\n")
     wr.writeheader()

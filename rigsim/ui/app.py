@@ -127,18 +127,19 @@ def metric_rows(pred: Prediction) -> list[dict]:
     return rows
 
 
-def agreement_text(water: str, *, converged: bool = False) -> str:
-    """How far the preview (fast engine) is from Monte Carlo in this water, from the published
-    benchmark (:func:`rigsim.metrics.agreement.published_agreement`)."""
+def agreement_text(water: str, *, rig: str | None = None, converged: bool = False) -> str:
+    """How far the preview (fast engine) is from Monte Carlo in this water with this rig (its name), from the
+    published benchmark (:func:`rigsim.metrics.agreement.published_agreement`)."""
     if converged:
         return "This is a Monte Carlo render (the reference the preview is checked against)."
     from rigsim.metrics.agreement import published_agreement
 
-    pub = published_agreement(Path(water).stem if water.endswith(".toml") else water)
+    pub = published_agreement(Path(water).stem if water.endswith(".toml") else water, rig=rig)
     if pub is None:
         return (f"The fast engine has not been checked against Monte Carlo in {water} water: press Render for "
                 "a converged image, or run benchmarks/bench_fast_engine_agreement.py --waters ... --publish.")
-    return pub.sentence()[0].upper() + pub.sentence()[1:] + "."
+    text = pub.sentence(rig)
+    return text[0].upper() + text[1:] + "."
 
 
 def exposure_text(pred: Prediction) -> str:
@@ -776,7 +777,7 @@ class RigDesigner:
         kind = "converged render" if converged else "preview"
         s.preview_title = f"{kind}: {pred.label} · {self.cond.water} · {self.cond.distance_m:g} m · {self.cond.target}"
         s.preview_info = f"{pred.engine} · {pred.width}×{pred.height} px · {pred.seconds:.2f} s"
-        s.agreement_text = agreement_text(self.cond.water, converged=converged)
+        s.agreement_text = agreement_text(self.cond.water, rig=self.rig.name, converged=converged)
         s.preview_gen = self.gen
         s.preview_busy = False
 

@@ -164,3 +164,38 @@ def test_a_contrast_is_measured_on_the_mean_of_the_renders_with_a_jackknife_erro
     assert abs(pooled.mean() - true_c) < 3 * pooled.std(ddof=1) / np.sqrt(len(pooled)), (pooled.mean(), true_c)
     assert 0.8 < np.mean(ses) / pooled.std(ddof=1) < 1.25, (np.mean(ses), pooled.std(ddof=1))
     assert np.mean(averaged) > 2 * true_c, np.mean(averaged)
+
+
+def _row(rig, water, region, dev, verdict="agrees", se=0.01, distance=1.0):
+    return {"rig": rig, "water": water, "target": "black-disk", "distance_m": distance, "quantity": "radiance",
+            "region": region, "group": "blue", "deviation": dev, "deviation_se": se, "tolerance": 0.05,
+            "verdict": verdict, "lighting": "strobes"}
+
+
+def test_the_published_table_keeps_each_rig_apart_and_a_rig_it_did_not_check_gets_the_cautious_row(tmp_path,
+                                                                                                     monkeypatch):
+    import rigsim.data
+    from rigsim.metrics.agreement import PUBLISHED_TABLE, published_agreement, write_published
+
+    monkeypatch.setattr(rigsim.data, "DATA_DIR", tmp_path)
+    path = tmp_path / PUBLISHED_TABLE
+    path.parent.mkdir(parents=True)
+    # a table of the older layout (one row per water, summed over rigs): superseded, dropped on writing
+    path.write_text("lighting,water,cases,distances_m,worst_deviation,worst_se,worst_where,tolerance,beyond,cells,"
+                    "measured,settings\nstrobes,jerlov-9C,4,\"1, 3\",-0.15,0.16,old,0.05,0,162,2026-12-05,old\n")
+    write_published([_row("wide", "jerlov-9C", "open water", -0.04), _row("wide", "jerlov-9C", "disk", 0.02),
+                     _row("edge", "jerlov-9C", "open water", -0.095, "within noise", 0.028, 3.0)],
+                    path, settings="test")
+    write_published([_row("wide", "coastal", "disk", 0.01)], path, settings="test")  # another water: kept apart
+    wide = published_agreement("jerlov-9C", rig="wide")
+    edge = published_agreement("jerlov-9C", rig="edge")
+    assert (wide.rig, wide.worst_deviation, wide.cases, wide.cells) == ("wide", -0.04, 1, 2)
+    assert (edge.rig, edge.worst_deviation, edge.worst_se, edge.distances_m) == ("edge", -0.095, 0.028, "3")
+    assert "edge" in edge.sentence("edge") and "not checked" not in edge.sentence("edge")
+    # a rig the benchmark did not check: the row farthest from Monte Carlo, and the sentence says whose it is
+    other = published_agreement("jerlov-9C", rig="my-own-rig")
+    assert other.rig == "edge"
+    assert "not checked with my-own-rig" in other.sentence("my-own-rig")
+    assert published_agreement("coastal").rig == "wide"
+    assert published_agreement("jerlov-3C") is None
+    assert "old" not in path.read_text().split("\n", 3)[3]  # the older layout's row is gone
