@@ -35,7 +35,13 @@ veil is 1.6 x its image mean), and 0.99-1.01 between them; at 10° 0.96-1.0 at t
 Measured 2026-12-05 with ``--rig twin-strobes-edge-lighting --cutoffs 30 --wavelength 450``: veil analytic / traced
 class A 1.029 +- 0.020 in 9C, 1.010 +- 0.007 in 7C.  Against 64 Monte Carlo renders the same rig's open water in 9C
 at 3 m is 8.6 +- 2.3 % low (blue; green -5.9 +- 1.6, red -4.6 +- 1.3): that shortfall is not the analytic class A,
-so it lies in the traced class B or the camera side.
+so it lies in the traced class B or the camera side.  Class B is not it either (same day, open water, 450 nm, 96 x 64):
+the fast engine's class B (default estimators, 16 cells, 4 seeds of 500 000 photons) / the exact estimators (collision
+estimator, no δ-truncation, 48 cells, 1 000 000 photons) 1.003 over the image (0.95-1.03 by 12-pixel column group), and
+the fast engine's whole veil / the tracer's every-path veil (``classes="qss"``, 2 000 000 photons) 0.973 (3 seeds of the
+fast engine; 0.94-1.01 +- 0.02-0.05 by column group).  What is left lies between the tracer's every-path veil with its
+quasi-single camera leg (``e^{-(c - bF) s}``) and Monte Carlo, or in the bands below 450 nm; the exact camera leg
+(``classes="all"``) is too noisy to tell (+-17 % at 2 000 000 photons).
 """
 
 from __future__ import annotations
