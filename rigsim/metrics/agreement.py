@@ -384,8 +384,11 @@ class PublishedAgreement:
         """One line for a user: how far the fast engine's picture of this water is from Monte Carlo.
 
         ``rig``: the rig the user looks at; if it is not the one measured, the line says so."""
-        tail = (f"; {self.beyond} of {self.cells} region values beyond ±{self.tolerance:.0%}" if self.beyond
-                else f", all within ±{self.tolerance:.0%} or the reference's noise")
+        tail = (f"; {self.beyond} of {self.cells} region values beyond ±{self.tolerance:.0%} by more than the "
+                f"reference's noise" if self.beyond else f", all within ±{self.tolerance:.0%} or the reference's noise")
+        if self.worst_se > self.tolerance:  # "within noise" then says little: say so
+            tail += (f"; the Monte Carlo reference is too noisy there (± {self.worst_se:.0%}) to show agreement "
+                     f"within ±{self.tolerance:.0%}")
         which = f"{self.lighting}, {self.rig}, " if self.rig else f"{self.lighting}, "
         other = (f" (not checked with {rig}: these numbers are the {self.rig} rig's)"
                  if rig and self.rig and rig != self.rig else "")

@@ -199,3 +199,19 @@ def test_the_published_table_keeps_each_rig_apart_and_a_rig_it_did_not_check_get
     assert published_agreement("coastal").rig == "wide"
     assert published_agreement("jerlov-3C") is None
     assert "old" not in path.read_text().split("\n", 3)[3]  # the older layout's row is gone
+
+
+def test_the_published_line_says_when_the_reference_is_too_noisy_to_show_agreement():
+    import dataclasses
+
+    from rigsim.metrics.agreement import PublishedAgreement
+
+    row = PublishedAgreement(lighting="strobes", water="jerlov-III", cases=4, distances_m="1, 3", worst_deviation=-0.12,
+                             worst_se=0.11, worst_where="light skin, green, colorchecker at 3 m", tolerance=0.03,
+                             beyond=0, cells=162, measured="2026-12-05", settings="test", rig="edge")
+    noisy = row.sentence("edge")
+    assert "within ±3% or the reference's noise" in noisy and "too noisy there (± 11%)" in noisy
+    quiet = dataclasses.replace(row, worst_deviation=-0.02, worst_se=0.01).sentence("edge")
+    assert "too noisy" not in quiet
+    beyond = dataclasses.replace(row, beyond=8, worst_se=0.02).sentence("edge")
+    assert "8 of 162 region values beyond ±3% by more than the reference's noise" in beyond and "too noisy" not in beyond
