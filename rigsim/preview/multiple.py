@@ -122,6 +122,11 @@ heavy-tailed references: with 64 renders 7 of those were left, with 256 none —
 −0.1 %, of Monte Carlo in coastal water; the fast engine's chart of the table's 9C case at 1 m −0.3 %, median of its
 72 patch cells) had said.  The open water of 9C around a black disk at 1 m went from −7.0 ± 0.7 to −4.0 ± 0.7 % and
 of 7C around a chart at 3 m from −5.8 ± 0.4 to −3.7 ± 0.4 % (blue) with the spread directions.
+The four other strobe rigs (2026-12-05, all 16 waters at 1 and 3 m, 4–32 renders; a row per rig in the table): 43 of
+10 870 cells beyond tolerance + t·SE, all chart cells of cases whose reference is heavy-tailed but one contrast near
+the floor; the open water within 5 % everywhere but the edge-lit rig in 9C at 3 m (−8.6 ± 2.3 %, blue group, 64
+renders; −4.2 ± 2.3 % at 450 nm against 32 other renders), whose parts the split benchmark finds right
+(``benchmarks/bench_fast_engine_split.py --rig twin-strobes-edge-lighting``).
 Before the spread directions the fast engine's veil was low where the strobes' beams are (the image's sides)
 and a little high between them (with them, in 9C around the disk at 1 m, blue, by column group left → right
 0.94 / 0.96 / 1.02 / 0.97 / 0.98 of 40 Monte Carlo renders, from 0.91 / 0.93 / 1.00 / 0.95 / 0.95): in 9C at 1 m and 7C at 3 m by image column 0.91–0.92 of Monte Carlo at the sides,
