@@ -338,6 +338,25 @@ def test_twenty_rapid_concurrent_edits_from_two_pages_leave_a_consistent_state(a
     assert app.alive()
 
 
+def test_the_save_as_name_a_page_types_is_not_sent_back_over_newer_typing(app):
+    """The server sends every page its values of what was edited 0.4 s after the edits stop; for the "save as"
+    name that crossed a newer name being typed (the page's state held the old name, and Save carried it)."""
+    async def go():
+        async with Page(app) as a:
+            await a.settle()
+            await a.update(save_name="first.toml")
+            a.state["save_name"] = "second.toml"  # typed since, still in the page
+            await asyncio.sleep(1.5)  # past the server's resend of the values edited
+            assert a.state["save_name"] == "second.toml"
+            await a.update(distance_m=1.7)  # the values the server does send back still come
+            a.state["distance_m"] = 9.9
+            await asyncio.sleep(1.5)
+            assert a.state["distance_m"] == pytest.approx(1.7)
+
+    run(go())
+    assert app.alive()
+
+
 # ------------------------------------------------------------------------------------ in process
 
 def test_every_variable_with_a_wrong_value_is_handled_by_its_callback(caplog):
