@@ -363,7 +363,7 @@ class PublishedAgreement:
     ``distances_m``; ``beyond`` of ``cells`` region values differed by more than the tolerance plus
     the difference's confidence half-width (:func:`verdict`: the reference's noise and, since the table of
     2026-12-04 evening, the fast engine's own photon noise; the tables before counted the reference's alone).
-    ``rig`` is the shipped rig the cases used (empty in tables before 2026-12-05, which summed over rigs).
+    ``rig`` is the shipped rig the cases used.
     """
 
     lighting: str
@@ -378,7 +378,7 @@ class PublishedAgreement:
     cells: int
     measured: str
     settings: str
-    rig: str = ""
+    rig: str
 
     def sentence(self, rig: str | None = None) -> str:
         """One line for a user: how far the fast engine's picture of this water is from Monte Carlo.
@@ -389,10 +389,8 @@ class PublishedAgreement:
         if self.worst_se > self.tolerance:  # "within noise" then says little: say so
             tail += (f"; the Monte Carlo reference is too noisy there (± {self.worst_se:.0%}) to show agreement "
                      f"within ±{self.tolerance:.0%}")
-        which = f"{self.lighting}, {self.rig}, " if self.rig else f"{self.lighting}, "
-        other = (f" (not checked with {rig}: these numbers are the {self.rig} rig's)"
-                 if rig and self.rig and rig != self.rig else "")
-        return (f"fast engine vs Monte Carlo in {self.water} ({which}{self.cases} cases at "
+        other = f" (not checked with {rig}: these numbers are the {self.rig} rig's)" if rig and rig != self.rig else ""
+        return (f"fast engine vs Monte Carlo in {self.water} ({self.lighting}, {self.rig}, {self.cases} cases at "
                 f"{self.distances_m} m): worst region {self.worst_deviation:+.1%} ± {self.worst_se:.1%} "
                 f"({self.worst_where}){tail} — measured {self.measured}{other}")
 
@@ -419,6 +417,8 @@ def published_agreement(water_name: str, lighting: str = "strobes", rig: str | N
         t = read_csv_table(DATA_DIR / PUBLISHED_TABLE)
     except (OSError, DataError):
         return None
+    if "rig" not in t.columns:  # a table of the layout before 2026-12-05 (summed over rigs): not trusted
+        return None
     cols = t.columns
     found = []
     for i in range(len(cols["water"])):
@@ -429,7 +429,7 @@ def published_agreement(water_name: str, lighting: str = "strobes", rig: str | N
                 worst_se=float(cols["worst_se"][i]), worst_where=str(cols["worst_where"][i]),
                 tolerance=float(cols["tolerance"][i]), beyond=int(cols["beyond"][i]), cells=int(cols["cells"][i]),
                 measured=str(cols["measured"][i]), settings=str(cols["settings"][i]),
-                rig=str(cols["rig"][i]) if "rig" in cols else ""))
+                rig=str(cols["rig"][i])))
     same = [p for p in found if rig and p.rig == rig]
     if same:
         return same[0]

@@ -958,10 +958,10 @@ class _Group:
         spread by the camera leg's kernel ``K`` (:mod:`rigsim.preview.forward`, at the target's range), so some
         of it reaches the target's pixels, and the water next to the target lacks what would have come from
         behind it: ``ΔL = s [M V_b − K ⊛ (M V_b)]`` (``M`` the target's pixels; the smooth rest,
-        ``s [K ⊛ V_b − V_b]``, is left out as everywhere: summed over range bins of the veil, with the field beyond the
-frame, it is within ±0.9 % of the veil in every 12-pixel column group — edge-lit rig, Jerlov 9C, 450 nm, 96 × 64,
-measured 2026-12-05 on a field twice the image's; without the field beyond the frame it would take 14 % from the
-outer columns, so a blur of the frame alone would be wrong).  The tiles add ``s M V_b``; :meth:`add_forward`
+        ``s [K ⊛ V_b − V_b]``, is left out as everywhere: summed over range bins of the veil, with the field
+        beyond the frame, it is within ±0.9 % of the veil in every 12-pixel column group — edge-lit rig, Jerlov 9C,
+        450 nm, 96 × 64, measured 2026-12-05 on a field twice the image's; without the field beyond the frame it
+        would take 14 % from the outer columns, so a blur of the frame alone would be wrong).  The tiles add ``s M V_b``; :meth:`add_forward`
         subtracts its blur.  Measured 2026-12-04 (``benchmarks/bench_fast_engine_decompose.py``, the demo's
         edge-lit black disk in Jerlov 3C at 1 m, 450 nm, 16 Monte Carlo renders): without it the veil in front
         of the disk was 0.3945 of the disk's Monte Carlo radiance against Monte Carlo's 0.427, while the

@@ -75,13 +75,16 @@ COND_VARS = ("water", "use_constituents", "chl", "cdom", "small", "large", "dept
              "target_size", "sensor", "exposure_mode", "shutter_inv", "iso", "flash_pct", "white_balance", "particles")
 
 
-#: The variables pages edit (their server values are sent back to every page after edits).  Not the "save as" name:
-#: each page types its own, and a value sent back can cross a newer one being typed — the page's state then held the
-#: previous name while its field showed the new one, and Save carried the previous one (the browser test, 2026-12-05:
-#: "../escape.toml" typed within 0.4 s of refusing "/tmp/x.toml", and the click carried "/tmp/x.toml").
+#: The values the file buttons carry with their clicks (Save, Load: :meth:`RigDesigner._shown`), read nowhere else:
+#: each page's own, so never sent back to the pages.  Sent back, one crossed a newer value being typed — the page's
+#: state then held the previous "save as" name while its field showed the new one, and Save carried the previous one
+#: (the browser test, 2026-12-05: "../escape.toml" typed within 0.4 s of refusing "/tmp/x.toml").
+_CARRIED_BY_CLICKS = ("save_name", "save_folder", "save_overwrite", "file_sel")
+
+#: The variables pages edit (their server values are sent back to every page after edits).
 _EDITABLE = tuple(LIGHT_VARS) + AIM_AT_VARS + tuple(CAMERA_VARS) + COND_VARS + (
     "light_index", "l_aim_mode", "l_power_mode", "compare_mode", "compare_waters", "compare_distances",
-    "compare_rig_b", "compare_auto", "save_folder", "save_overwrite", "file_sel", "render_quality")
+    "compare_rig_b", "compare_auto", "render_quality")
 
 
 class _Cancelled(Exception):

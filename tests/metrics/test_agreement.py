@@ -183,6 +183,7 @@ def test_the_published_table_keeps_each_rig_apart_and_a_rig_it_did_not_check_get
     # a table of the older layout (one row per water, summed over rigs): superseded, dropped on writing
     path.write_text("lighting,water,cases,distances_m,worst_deviation,worst_se,worst_where,tolerance,beyond,cells,"
                     "measured,settings\nstrobes,jerlov-9C,4,\"1, 3\",-0.15,0.16,old,0.05,0,162,2026-12-05,old\n")
+    assert published_agreement("jerlov-9C") is None  # not read: its numbers are not any one rig's
     write_published([_row("wide", "jerlov-9C", "open water", -0.04), _row("wide", "jerlov-9C", "disk", 0.02),
                      _row("edge", "jerlov-9C", "open water", -0.095, "within noise", 0.028, 3.0)],
                     path, settings="test")

@@ -19,6 +19,7 @@ from pathlib import Path
 import msgpack
 import pytest
 
+from rigsim.ui.app import _CARRIED_BY_CLICKS
 from tests.ui.wsclient import ROOT, Page, frame, start_app
 
 pytestmark = pytest.mark.filterwarnings("ignore::DeprecationWarning")
@@ -340,14 +341,19 @@ def test_twenty_rapid_concurrent_edits_from_two_pages_leave_a_consistent_state(a
 
 def test_the_save_as_name_a_page_types_is_not_sent_back_over_newer_typing(app):
     """The server sends every page its values of what was edited 0.4 s after the edits stop; for the "save as"
-    name that crossed a newer name being typed (the page's state held the old name, and Save carried it)."""
+    name that crossed a newer name being typed (the page's state held the old name, and Save carried it): the
+    values the file buttons carry are not sent back."""
     async def go():
         async with Page(app) as a:
             await a.settle()
-            await a.update(save_name="first.toml")
-            a.state["save_name"] = "second.toml"  # typed since, still in the page
+            first = {"save_name": "first.toml", "save_folder": "rigs", "save_overwrite": False, "file_sel": None}
+            newer = {"save_name": "second.toml", "save_folder": "work", "save_overwrite": True,
+                     "file_sel": "rigs/twin-strobes-45-wide.toml"}
+            assert set(first) == set(_CARRIED_BY_CLICKS)
+            await a.update(**first)
+            a.state.update(newer)  # changed since, still in the page
             await asyncio.sleep(1.5)  # past the server's resend of the values edited
-            assert a.state["save_name"] == "second.toml"
+            assert {k: a.state[k] for k in newer} == newer
             await a.update(distance_m=1.7)  # the values the server does send back still come
             a.state["distance_m"] = 9.9
             await asyncio.sleep(1.5)
