@@ -88,6 +88,14 @@ class BeamPointEmitter(mi.Emitter):
         return self
 
     # -- beam pattern ---------------------------------------------------------------
+    def beam_pattern(self, d_out):
+        """f(θ) (f(0) = 1) for unit directions ``d_out`` leaving the light (Dr.Jit)."""
+        return self._pattern(d_out)
+
+    def intensity_at(self, wavelengths, active=True):
+        """``I_axis(λ)`` (Spectrum) at ``wavelengths``."""
+        return self._spectrum(wavelengths, active)
+
     def _pattern(self, d_out):
         """f(θ) for unit directions ``d_out`` leaving the light."""
         # θ = 2 atan2(|d − a|, |d + a|): accurate at all angles
