@@ -18,10 +18,13 @@ roulette cap) removes the tail (each measured; several make it worse), nor does 
 phase function in place of Petzold's.
 
 The light is traced the other way here, where it is easy: from the strobes.
-1. **Irradiance on the targets by light tracing**: :func:`rigsim.preview.multiple.trace_multiple` with
-   ``classes="irradiance"`` — photons from each strobe's beam, every scattering exact (no δ-truncation,
-   every band), every hit on the side of a target the camera sees deposited in a texture cell, the
-   photons reflected on diffusely (light that goes chart → water → chart is in it).  Photon weights are
+1. **Irradiance on the targets by light tracing**: :func:`rigsim.render.light_trace.trace_target_irradiance`
+   (``--tracer mitsuba``, default since 2026-12-05) — photons from each strobe through the renderer's own
+   Mitsuba scene (its emitter, water medium, phase plugin and target BSDFs), every scattering exact, every
+   hit on the side of a target the camera sees deposited in a texture cell, plus a flight from every
+   vertex aimed at the targets (MIS), the photons reflected on diffusely (light that goes chart → water →
+   chart is in it); or the fast engine's numpy tracer, :func:`rigsim.preview.multiple.trace_multiple` with
+   ``classes="irradiance"`` (``--tracer numpy``; ~15x slower for the same noise).  Photon weights are
    bounded: no tail.
 2. **The camera leg**: Mitsuba's own ``volpath`` with the targets black and *emitting* ``ρ/π E`` per
    texture cell (each cell a rectangle with a uniform area emitter), the same water medium, one render per
@@ -30,8 +33,9 @@ The light is traced the other way here, where it is easy: from the strobes.
    no such tail: ±0.3–0.8 % at 4–8 renders).
 
 Their sum counts every path once, at its last surface interaction: an independent reference for the
-patches (the light leg shares the photon tracer's code with the fast engine's multiply scattered light,
-but not its approximations: no δ-truncation, no class split, no spectral nodes, no smoothing).
+patches (with ``--tracer mitsuba`` nothing of it is the fast engine's code; with ``--tracer numpy`` the light
+leg shares the photon tracer's code with the fast engine's multiply scattered light, but not its
+approximations: no δ-truncation, no class split, no spectral nodes, no smoothing).
 
 Status (2026-12-03): a measuring tool, not yet the study's check: its own noise is too large.  The light
 tracer's photon noise is 1.5 % over the whole chart at 400 000 photons (44 s), so ~8 % per patch; per patch
@@ -96,7 +100,12 @@ def emissive_camera_pass(scene, surf, E, rho, wl, bw, *, width, height, spp, see
     """Radiance (H, W, B) at the camera of the targets emitting ``ρ/π E`` (black otherwise), through the water:
     Mitsuba ``volpath``, one render per band.  ``E`` (S, T, T, B) is averaged to ``cells_per_side``² emitters
     per piece: ``volpath`` picks one emitter at random for each next-event estimate, and with 64 per patch
-    (1 600 in all) the forward-scattered light of the camera leg was 20–30 % noisy per patch at 8 spp."""
+    (1 600 in all) the forward-scattered light of the camera leg was 20–30 % noisy per patch at 8 spp.
+    One band per render: with four neighbouring bands in one render (each emitter a step spectrum over
+    them, a path's four wavelengths in different bands) a pass took a third of the time but its noise per
+    patch doubled (coastal water, chart at 1 m, 32 spp: 1.8 % → 3.4 % rms over the patches; 24 s → 8 s
+    per pass) — ``volpath`` draws distances for the path's first wavelength, and the other bands' weights
+    are ratios of transmittances: no gain."""
     from rigsim.render.mitsuba_scene import WATER_KEY, MitsubaScene, water_medium_dict
     from rigsim.render.renderer import render_pass
     from rigsim.render.variant import mitsuba
@@ -204,11 +213,16 @@ def main(argv=None) -> int:
     ap.add_argument("--rig", default="twin-strobes-45-wide")
     ap.add_argument("--size", default="96x64")
     ap.add_argument("--photons", type=int, default=800_000, help="photons of the light tracer")
-    ap.add_argument("--camera-spp", type=int, default=16, help="paths per pixel of each band's camera pass")
+    ap.add_argument("--camera-spp", type=int, default=16, help="paths per pixel of each band's camera pass (in all)")
+    ap.add_argument("--camera-seeds", type=int, default=4,
+                    help="independent camera passes the paths are split into (their spread: the pass's noise)")
     ap.add_argument("--seeds", type=int, default=4, help="Monte Carlo renders (the veil, and the plain reference)")
     ap.add_argument("--spp", type=int, default=32, help="paths per pixel of each Monte Carlo render")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--cells", type=int, default=2, help="emitters per side of each chart piece in the camera pass")
+    ap.add_argument("--tracer", choices=("mitsuba", "numpy"), default="mitsuba",
+                    help="the light leg: rigsim.render.light_trace in the renderer's Mitsuba scene (default), or the "
+                         "fast engine's numpy tracer (trace_multiple)")
     ap.add_argument("--fill", type=float, default=None,
                     help="the chart's width over the field's (the agreement benchmark's 0.4); default: its real size")
     ap.add_argument("--all-regions", action="store_true", help="print every patch (default: five and the open water)")
@@ -243,13 +257,25 @@ def main(argv=None) -> int:
     surf = scene_surfaces(scene)
     tab = phase_tables(water.phase, water.wavelength_range_nm)
     c, b = water.c_per_m(wl), water.b_per_m(wl)
-    lt = trace_multiple(scene, surf, strobes, wl, c=c, b=b, kappa_cam=c, tables=tab, weights=tab.weights_at(wl),
-                        width=w, height=h, cutoff_rad=np.radians(30.0), photons=a.photons, classes="irradiance",
-                        spectral_nodes=None, seed=a.seed)
+    if a.tracer == "numpy":
+        lt = trace_multiple(scene, surf, strobes, wl, c=c, b=b, kappa_cam=c, tables=tab, weights=tab.weights_at(wl),
+                            width=w, height=h, cutoff_rad=np.radians(30.0), photons=a.photons, classes="irradiance",
+                            spectral_nodes=None, seed=a.seed)
+        E, batch_E, noise = lt.irradiance, [lt.batch(k).irradiance for k in range(lt.n_batches)], lt.relative_noise[1]
+    else:
+        from rigsim.preview.multiple import TEXTURE
+        from rigsim.render.light_trace import trace_target_irradiance
+
+        lt = trace_target_irradiance(scene, wavelength_nm=wl, bandwidth_nm=bw, photons=a.photons, seed=a.seed,
+                                     batches=8, cells=TEXTURE)
+        E, batch_E = lt.irradiance, list(lt.batches)
+        tot = np.array([np.nansum(x * np.where(np.isfinite(lt.cell_area_m2), lt.cell_area_m2, 0)[..., None])
+                        for x in batch_E])
+        noise = float(tot.std(ddof=1) / np.sqrt(len(tot)) / tot.mean())
     t_lt = time.perf_counter() - t0
-    E = lt.irradiance
     if a.smooth >= 0:
-        E, rows = smooth_chart_irradiance(surf, E, [lt.batch(k).irradiance for k in range(lt.n_batches)], a.smooth)
+        E_batches = [smooth_chart_irradiance(surf, x, batch_E, a.smooth)[0] for x in batch_E]
+        E, rows = smooth_chart_irradiance(surf, E, batch_E, a.smooth)
         print(f"light-traced irradiance of the patches against its fit of order {a.smooth} (raw / fit − 1, "
               f"± the raw mean's SE), blue / green / red:")
         for name, raw, fit, per in rows:
@@ -259,9 +285,15 @@ def main(argv=None) -> int:
                 s_ = per[:, ix].mean(axis=1).std(ddof=1) / np.sqrt(len(per))
                 parts.append(f"{r_ / f_ - 1:+6.1%} ± {s_ / f_:4.1%}")
             print(f"   {name[:22]:22s} " + "   ".join(parts))
+    else:
+        E_batches = batch_E
     t0 = time.perf_counter()
-    reflected = emissive_camera_pass(scene, surf, E, surf.reflectance(wl)[1:], wl, bw, width=w, height=h,
-                                     spp=a.camera_spp, seed=a.seed, cells_per_side=a.cells)
+    if a.camera_seeds < 2 or a.camera_spp < a.camera_seeds:
+        raise SystemExit("--camera-seeds must be ≥ 2 and ≤ --camera-spp")
+    rho = surf.reflectance(wl)[1:]
+    passes = [emissive_camera_pass(scene, surf, E, rho, wl, bw, width=w, height=h, spp=a.camera_spp // a.camera_seeds,
+                                   seed=a.seed + 100_003 * i, cells_per_side=a.cells) for i in range(a.camera_seeds)]
+    reflected = np.mean(passes, axis=0)
     t_cam = time.perf_counter() - t0
     t0 = time.perf_counter()
     refs, veils = [], []
@@ -276,21 +308,47 @@ def main(argv=None) -> int:
     hybrid = np.mean(veils, axis=0) + reflected
     regions = comparison_regions(np.asarray(fast.layers["object_id"]), fast.meta.get("object_ids", {}), "colorchecker")
     print(f"{a.water}, colorchecker at {a.distance:g} m, {a.rig}, {w}x{h}: light tracer {a.photons} photons "
-          f"{t_lt:.0f} s (irradiance noise {lt.relative_noise[1]:.2%} over the targets), camera pass "
+          f"{t_lt:.0f} s ({a.tracer}; irradiance noise {noise:.2%} over the targets), camera pass "
           f"{a.camera_spp} spp x {len(wl)} bands {t_cam:.0f} s, Monte Carlo {a.seeds} x {a.spp} spp {t_mc:.0f} s\n")
-    print(f"{'region':24s} {'group':6s} {'fast/MC - 1':>16s} {'fast/hybrid - 1':>16s} {'hybrid/MC - 1':>16s} "
+    from rigsim.metrics.agreement import noise_multiplier, tolerance_for
+
+    tol = tolerance_for(a.water)
+    print(f"{'region':24s} {'group':6s} {'fast/MC - 1':>16s} {'fast/hybrid - 1':>18s} {'hybrid/MC - 1':>16s} "
           f"{'reflected share':>16s}")
     n = len(refs)
+    k_t = noise_multiplier(min(n, a.camera_seeds, len(E_batches)))
+    rows_out = []
     for name in (sorted(regions) if a.all_regions else REGIONS):
         if name not in regions:
             continue
         m = regions[name]
+        k = next((i for i, lab in enumerate(surf.labels) if name == "patch:" + lab.split(": ")[-1]), None)
         for g, idx in colour_groups(wl).items():
             per = np.array([x[m][:, idx].mean() for x in refs])
             mc, se = per.mean(), per.std(ddof=1) / math.sqrt(n) / per.mean()
             f, hy = hf[m][:, idx].mean(), hybrid[m][:, idx].mean()
-            print(f"{name[:24]:24s} {g[:6]:6s} {f / mc - 1:+9.1%} ±{se:4.1%} {f / hy - 1:+16.1%} "
-                  f"{hy / mc - 1:+9.1%} ±{se:4.1%} {reflected[m][:, idx].mean() / hy:16.2f}")
+            refl = reflected[m][:, idx].mean()
+            # the hybrid's own noise: its camera passes, the veil's renders, and the light-traced irradiance
+            se_cam = np.std([p_[m][:, idx].mean() for p_ in passes], ddof=1) / math.sqrt(len(passes))
+            se_veil = np.std([v[m][:, idx].mean() for v in veils], ddof=1) / math.sqrt(len(veils))
+            if k is not None:
+                pe = np.array([x_[k][..., idx].mean() for x_ in E_batches])
+                rel_e = pe.std(ddof=1) / math.sqrt(len(pe)) / max(E[k][..., idx].mean(), 1e-300)
+            else:
+                rel_e = 0.0
+            se_h = math.sqrt(se_cam ** 2 + se_veil ** 2 + (refl * rel_e) ** 2) / hy
+            d = f / hy - 1
+            rows_out.append((name, g, d, se_h))
+            print(f"{name[:24]:24s} {g[:6]:6s} {f / mc - 1:+9.1%} ±{se:4.1%} {d:+10.1%} ±{se_h:4.1%} "
+                  f"{hy / mc - 1:+9.1%} ±{se:4.1%} {refl / hy:16.2f}")
+    dev = np.array([r_[2] for r_ in rows_out])
+    seh = np.array([r_[3] for r_ in rows_out])
+    beyond = np.abs(dev) > tol + k_t * seh
+    print(f"\nfast / hybrid − 1 over {len(dev)} cells: median {np.median(dev):+.1%}, from {dev.min():+.1%} to "
+          f"{dev.max():+.1%}; beyond ±{tol:.0%}: {int((np.abs(dev) > tol).sum())}, beyond ±{tol:.0%} + "
+          f"{k_t:.2f}·SE (the hybrid's own noise): {int(beyond.sum())}")
+    for (name, g, d, s_) in sorted(rows_out, key=lambda r_: -abs(r_[2]))[:5]:
+        print(f"   {name[:30]:30s} {g:6s} {d:+7.1%} ± {s_:4.1%}")
     return 0
 
 

@@ -36,6 +36,13 @@ index and the dimension), so no sampler state moves with the photons.
 The estimate is the collision estimator of the flux through each cell (E = Φ / A), per band; photons are
 split into ``batches`` independent groups whose spread gives the standard error.
 
+Cost (2 cores, LLVM, warm kernel cache; twin strobes 0.45 m out): Jerlov III, the chart at its real size at
+3 m, 8 000 000 photons in 47 s, each patch's band-group mean to 3–5 % (the numpy tracer: 800 000 photons in
+87 s, 9–13 %) — about 15× less time for the same noise; a white disk 1 m wide at 1.5 m in coastal water,
+2 000 000 photons in 8 s to 0.1 % (numpy: 400 000 in 15 s, 0.1–0.2 %).  The two agree: over the 75
+patch × colour-group means of that chart z = (Dr.Jit − numpy)/SE has rms 0.97; on the disk in Jerlov III at
+2 m −0.8, −0.7, +0.1 % (± 0.4–0.6 %).
+
 Checked against the exact direct irradiance of a point light in purely absorbing water
 (``I(θ) cos θᵢ e^{−c r} / r²``) and against the fast engine's numpy light tracer
 (:func:`rigsim.preview.multiple.trace_multiple`, ``classes="irradiance"``) in scattering water:
