@@ -75,6 +75,9 @@ spp = {spp}
 seeds = {seeds}
 max_seeds = {max_seeds}
 target_se = {target_se}
+reference = "{reference}"
+hybrid_photons = {hybrid_photons}
+hybrid_spp = {hybrid_spp}
 """
 
 
@@ -121,6 +124,12 @@ def main(argv=None) -> int:
                     help="use (and add to) the Monte Carlo renders kept by an earlier run with --out DIR "
                          "(<DIR>/<lighting>/mc-renders): a change to the fast engine is checked against the same "
                          "references in minutes")
+    ap.add_argument("--reference", choices=("monte-carlo", "hybrid"), default="monte-carlo",
+                    help="hybrid: the chart cases' references are renders whose chart light is light-traced and seen "
+                         "through the water by a camera pass (rigsim.render.hybrid; for turbid water, where the "
+                         "renders' chart patches are heavy-tailed); the disk and daylight cases stay renders")
+    ap.add_argument("--hybrid-photons", type=int, default=1_000_000, help="light-tracer photons per hybrid image")
+    ap.add_argument("--hybrid-spp", type=int, default=64, help="camera-pass paths per pixel and band per hybrid image")
     ap.add_argument("--publish", action="store_true",
                     help=f"write the per-water summary to {PUBLISHED.relative_to(ROOT)} (the rig designer shows it)")
     args = ap.parse_args(argv)
@@ -147,7 +156,8 @@ def main(argv=None) -> int:
                                   max_seeds=max(args.seeds, args.max_seeds),
                                   target_se=args.target_se if name == "strobes" or args.daylight_target_se is None
                                   else args.daylight_target_se,
-                                  ms=args.multiple_scattering).replace("'", '"'))
+                                  ms=args.multiple_scattering, reference=args.reference,
+                                  hybrid_photons=args.hybrid_photons, hybrid_spp=args.hybrid_spp).replace("'", '"'))
         spec = load_study(f)
         if args.renders_from is not None:
             src, dst = args.renders_from.resolve() / name / MC_RENDERS, args.out / name / MC_RENDERS

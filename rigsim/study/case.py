@@ -233,7 +233,29 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
                 _write_render(f, img)
         return img
 
-    refs = [mc(i) for i in range(ck.seeds)]
+    hybrid = ck.reference == "hybrid" and _supports_hybrid(scene)
+
+    def reference(i):
+        """Reference image ``i``: render ``i``; or (hybrid) the mean of renders ``i·k … i·k + k − 1`` (k
+        ``hybrid_veil_renders``) with its chart light replaced by hybrid estimate ``i``."""
+        if not hybrid:
+            return mc(i)
+        from rigsim.metrics.agreement import mean_image
+        from rigsim.render.hybrid import HybridSettings, hybrid_image, hybrid_reflected
+
+        k = ck.hybrid_veil_renders
+        img = mean_image([mc(i * k + j) for j in range(k)])
+        hs = HybridSettings(photons=ck.hybrid_photons, spp=ck.hybrid_spp)
+        f = None if keep is None else keep / f"{hs.key()}-{i:03d}.npz"
+        refl = _read_array(f, (ck.height, ck.width, len(wl)))
+        if refl is None:
+            refl, _ = hybrid_reflected(scene, width=ck.width, height=ck.height, wavelength_nm=wl, settings=hs,
+                                       seed=(seed + 7919 * i) % 2**31)
+            if f is not None:
+                _write_array(f, refl)
+        return hybrid_image(img, refl)
+
+    refs = [reference(i) for i in range(ck.seeds)]
     regions, metrics = compare_renders(fast, refs, target_kind, fast_batches=fast_batches)
     pilot = None
     if (ck.max_seeds or ck.seeds) > ck.seeds:  # two stages (CheckSettings): the pilot's noise sets the count
@@ -243,7 +265,7 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
         pilot = {"seeds": ck.seeds, "se_p90": float(np.percentile(se, 90)) if se.size else float("nan")}
         n = ck.renders_for(pilot["se_p90"])
         if n > len(refs):
-            refs += [mc(i) for i in range(len(refs), n)]
+            refs += [reference(i) for i in range(len(refs), n)]
             regions, metrics = compare_renders(fast, refs, target_kind, fast_batches=fast_batches)
     t_mc = time.perf_counter() - t0
     record = {"case_id": spec.case_id(case), "case": case.key(), "rig": case.rig_name, "water": case.water_name,
@@ -251,6 +273,9 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
               "c_550_per_m": float(water.c_per_m(550.0)), "b_550_per_m": float(water.b_per_m(550.0)),
               "tolerance": tolerance_for(case.water_name), "width": ck.width, "height": ck.height,
               "spp": ck.spp, "seeds": len(refs), "pilot": pilot, "integrator": ck.integrator,
+              "reference": "hybrid" if hybrid else "monte-carlo",
+              "hybrid": {"photons": ck.hybrid_photons, "spp": ck.hybrid_spp,
+                         "veil_renders": ck.hybrid_veil_renders} if hybrid else None,
               "fast_wall_time_s": t_fast, "monte_carlo_wall_time_s": t_mc,
               "regions": [r.record() for r in regions], "metrics": [m.record() for m in metrics]}
     from rigsim.spectral_image import srgb_preview
@@ -258,6 +283,32 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
     fast_rgb, shown = srgb_preview(fast)  # one exposure for both pictures: the fast image's
     mc_rgb, _ = srgb_preview(_mean_image(refs), scale=shown["xyz_scale"])
     return {"record": record, "files": {"fast.png": png_bytes(fast_rgb), "monte-carlo.png": png_bytes(mc_rgb)}}
+
+
+def _supports_hybrid(scene) -> bool:
+    from rigsim.render.hybrid import supports_hybrid
+
+    return supports_hybrid(scene)
+
+
+def _write_array(path, a: np.ndarray) -> None:
+    """Keep an array atomically (``.npz``, :func:`rigsim.fileio.atomic_write_npz`)."""
+    from rigsim.fileio import atomic_write_npz
+
+    atomic_write_npz(path, {"a": np.asarray(a, np.float64)})
+
+
+def _read_array(path, shape: tuple):
+    """A kept array of ``shape``, or None (none, unreadable, another shape: made again)."""
+    if path is None or not path.is_file():
+        return None
+    try:
+        with np.load(path) as z:
+            a = z["a"]
+    except (OSError, ValueError, KeyError) as exc:
+        log.warning("%s: %s; making it again", path, exc)
+        return None
+    return a if a.shape == tuple(shape) and np.all(np.isfinite(a)) else None
 
 
 def cached_render_dir(root, spec: StudySpec, case: Case):

@@ -260,6 +260,7 @@ def agreement_rows(checks: list[dict]) -> list[dict]:
     for rec in checks:
         base = {k: rec.get(k) for k in ("rig", "water", "target", "distance_m", "c_550_per_m", "tolerance", "width",
                                         "height", "spp", "seeds")}
+        base["reference"] = rec.get("reference", "monte-carlo")
         for r in rec["regions"]:
             rows.append({**base, "quantity": "radiance", "region": r["region"], "group": r["group"],
                          "pixels": r["pixels"], "fast": r["fast"], "monte_carlo": r["reference"],

@@ -307,3 +307,53 @@ def test_multiple_scattering_is_a_render_option_of_fast_studies(tmp_path):
     with pytest.raises(ConfigError) as e:
         load_study(bad)
     assert "render.multiple_scattering" in str(e.value) and "\n" not in str(e.value)
+
+
+def test_a_hybrid_check_references_the_chart_by_light_tracing_and_keeps_its_parts(tmp_path, monkeypatch):
+    """[check] reference = "hybrid": a chart case's reference images are renders whose flash is their veil plus
+    the chart's light by light tracing and a camera pass (rigsim.render.hybrid), each kept beside the renders
+    and made once; the record says which reference it is; a disk case stays plain Monte Carlo."""
+    import rigsim.render.hybrid as hy
+    from rigsim.study.case import cached_render_dir, compute_check
+
+    calls = []
+    real = hy.hybrid_reflected
+
+    def counting(*a, **k):
+        calls.append(k["seed"])
+        return real(*a, **k)
+
+    monkeypatch.setattr(hy, "hybrid_reflected", counting)
+    (tmp_path / "p").mkdir()
+    (tmp_path / "d").mkdir()
+    extra = ("\n[check]\nwidth = 24\nheight = 16\nspp = 2\nseeds = 2\nreference = \"hybrid\"\n"
+             "hybrid_photons = 20000\nhybrid_spp = 1\nhybrid_veil_renders = 2\n")
+    spec = load_study(fast_study(tmp_path, waters='["coastal"]', distances="[1.5]", targets='["colorchecker"]',
+                                 render_extra="check_with_mitsuba = 1", extra=extra))
+    plain = load_study(fast_study(tmp_path / "p", waters='["coastal"]', distances="[1.5]", targets='["colorchecker"]',
+                                  render_extra="check_with_mitsuba = 1",
+                                  extra=extra.replace('reference = "hybrid"', 'reference = "monte-carlo"')))
+    case = spec.check_cases()[0]
+    assert spec.check_id(case) != plain.check_id(plain.check_cases()[0])
+    cache = tmp_path / "mc"
+    rec = compute_check(spec, case, render_cache=cache)["record"]
+    assert rec["reference"] == "hybrid" and rec["hybrid"] == {"photons": 20000, "spp": 1, "veil_renders": 2}
+    assert len(list(cached_render_dir(cache, spec, case).glob("render-*/spectral.npz"))) == 4  # 2 veils each
+    assert len(calls) == 2 and len(set(calls)) == 2  # one independent estimate per reference image
+    kept = sorted(cached_render_dir(cache, spec, case).glob("hybrid-*.npz"))
+    assert len(kept) == 2
+    again = compute_check(spec, case, render_cache=cache)["record"]
+    assert len(calls) == 2, "a kept hybrid part was made again"
+    assert [r["reference"] for r in again["regions"]] == [r["reference"] for r in rec["regions"]]
+    # the same renders under the plain reference: the chart's patches differ (their light is replaced), the
+    # open water away from the chart does not (its light is the renders' own veil)
+    base = compute_check(plain, plain.check_cases()[0], render_cache=cache)["record"]
+    assert base["reference"] == "monte-carlo"
+    ref = {(r["region"], r["group"]): r["reference"] for r in rec["regions"]}
+    ref0 = {(r["region"], r["group"]): r["reference"] for r in base["regions"]}
+    assert any(abs(ref[k] / ref0[k] - 1) > 1e-3 for k in ref if k[0].startswith("patch:"))
+    assert all(ref[k] == pytest.approx(ref0[k], rel=0.05) for k in ref if k[0] == "open water")
+    disk = load_study(fast_study(tmp_path / "d", waters='["coastal"]', distances="[1.5]",
+                                 render_extra="check_with_mitsuba = 1", extra=extra))
+    assert compute_check(disk, disk.check_cases()[0])["record"]["reference"] == "monte-carlo"
+    assert len(calls) == 2

@@ -1,0 +1,213 @@
+"""A second Monte Carlo reference for a chart lit by strobes in turbid water: light tracing + a camera pass.
+
+Why
+---
+In water that scatters much and absorbs little (Jerlov III, 5C–9C) the renderer's camera paths find the
+strobe light on a chart patch by rebuilding, from the patch, a chain of many nearly collinear small-angle
+scatterings back to a point light: the estimate is heavy-tailed (one render of a chart case up to 1 733×
+the median), and a patch's mean over tens of renders is often tens of per cent off with a standard error
+that does not show it (``benchmarks/bench_reference_convergence.py``).  Traced the other way the same light
+is easy.  The reference here splits every path at its last surface interaction:
+
+1. **the targets' irradiance by light tracing** (:func:`rigsim.render.light_trace.trace_target_irradiance`:
+   photons from the strobes through the renderer's own Mitsuba scene; bounded weights, no tail), on the
+   chart fitted by a quadratic in its plane (:func:`smooth_chart_irradiance`: the light on a chart a metre
+   or more into turbid water changes over decimetres, a patch is 4 cm; the fit pools the 24 patches' photons);
+2. **the camera leg**: Mitsuba's ``volpath`` through the same water with the targets black and *emitting*
+   ``ρ/π E`` (:func:`emissive_camera_pass`, one render per band);
+3. **the veil**: the renderer's own ``backscatter`` layer (light of paths that never meet a surface; no
+   such tail) — of the Monte Carlo render each hybrid image is built on (:func:`hybrid_image`).
+
+Each hybrid image is an independent estimate (its own photons, camera paths and render), so the agreement
+check (:func:`rigsim.metrics.agreement.compare_renders`) takes their mean and spread as it takes renders'.
+
+Measured (``benchmarks/bench_reference_hybrid.py``): where Monte Carlo converges (coastal water, chart at
+1 m) hybrid / Monte Carlo − 1 has median −0.1 % over the 72 patch cells, within the renders' 1–3 %; in Jerlov
+7C with the edge-lit rig at 1 m the fast engine reads within a few per cent of the hybrid where 16 renders of
+Monte Carlo scatter by ±40 %.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+from rigsim.errors import ConfigError
+from rigsim.render.light_trace import TargetIrradiance, trace_target_irradiance
+from rigsim.render.variant import mitsuba
+from rigsim.scene.surfaces import target_surfaces
+from rigsim.scene.types import Scene
+from rigsim.spectrum import band_average, band_edges
+
+__all__ = ["CELLS", "CAMERA_CELLS", "HybridSettings", "emissive_camera_pass", "hybrid_image", "hybrid_reflected",
+           "smooth_chart_irradiance", "supports_hybrid"]
+
+mi, dr = mitsuba()
+
+#: Texture cells per side of each target piece in the light tracer.
+CELLS = 8
+#: Emitters per side of each piece in the camera pass (the tracer's cells averaged): ``volpath`` picks one
+#: emitter at random for each next-event estimate, and with 64 per patch (1 600 in all) the camera leg's
+#: forward-scattered light was 20–30 % noisy per patch at 8 spp (2026-12-04).
+CAMERA_CELLS = 2
+
+
+@dataclass(frozen=True)
+class HybridSettings:
+    """Work per hybrid image: light-tracer photons, camera-pass paths per pixel and band, the fit's order."""
+
+    photons: int = 1_000_000
+    spp: int = 64
+    order: int = 2
+
+    def key(self) -> str:
+        return f"hybrid-{self.photons}ph-{self.spp}spp-o{self.order}"
+
+
+def supports_hybrid(scene: Scene) -> bool:
+    """Whether the hybrid reference applies: one ColorChecker, lit by strobes only, in water."""
+    return (scene.water is not None and len(scene.targets) == 1 and scene.targets[0].kind == "colorchecker"
+            and bool(scene.lights) and all(l.kind == "strobe" for l in scene.lights))
+
+
+def smooth_chart_irradiance(pieces, labels, E: np.ndarray, cell_area_m2: np.ndarray, order: int = 2) -> np.ndarray:
+    """The light-traced irradiance ``E`` (S, T, T, B) of a ColorChecker's patches replaced by a polynomial of
+    ``order`` in the chart's plane (u, v about the chart body's centre), fitted per band to the texture cells of
+    all 24 patches (their areas as weights) and evaluated on the patches and on the body (whose own cells mix
+    the lit gaps with the dark under the patches: emitting that mean, the gaps shone at about a third of
+    their light and their glow over the dark patches was missing, −13 … −17 % on the black patch in coastal
+    water at 1 m).  Checked in ``benchmarks/bench_reference_hybrid.py``: each patch's raw mean scatters about
+    the fit as its noise says (rms of (raw − fit)/SE ≈ 1 in coastal water at 1 m, Jerlov III at 3 m, 7C and 9C
+    at 1 m)."""
+    body = [k for k, lab in enumerate(labels) if lab.endswith("chart")]
+    patches = [k for k, lab in enumerate(labels) if not lab.endswith("chart")]
+    if len(body) != 1 or not patches:
+        raise ValueError("the fit needs a ColorChecker")
+    k0 = body[0]
+    T = E.shape[1]
+    g = (np.arange(T) + 0.5) / T * 2 - 1
+    c0 = np.asarray(pieces[k0].center_m, float)
+    u0, v0 = np.asarray(pieces[k0].u_axis, float), np.asarray(pieces[k0].v_axis, float)
+
+    def plane_uv(k):
+        p = pieces[k]
+        hw, hh = p.size_m[0] / 2, p.size_m[1] / 2
+        cen = (np.asarray(p.center_m, float)[None, None, :] + hw * g[:, None, None] * np.asarray(p.u_axis, float)
+               + hh * g[None, :, None] * np.asarray(p.v_axis, float))
+        rel = cen - c0
+        return np.stack([rel @ u0, rel @ v0], axis=-1).reshape(-1, 2)
+
+    uv = np.concatenate([plane_uv(k) for k in patches])
+    scale = np.abs(uv).max()
+
+    def design(xy):
+        x, y = xy[:, 0] / scale, xy[:, 1] / scale
+        return np.stack([x ** i * y ** j for i in range(order + 1) for j in range(order + 1 - i)], axis=1)
+
+    A = design(uv)
+    wsq = np.sqrt(np.concatenate([cell_area_m2[k].reshape(-1) for k in patches]))[:, None]
+    raw = np.concatenate([E[k].reshape(-1, E.shape[-1]) for k in patches])
+    coef, *_ = np.linalg.lstsq(A * wsq, raw * wsq, rcond=None)
+    out = E.copy()
+    n = T * T
+    fit = A @ coef
+    for j, k in enumerate(patches):
+        out[k] = fit[j * n:(j + 1) * n].reshape(T, T, -1)
+    out[k0] = (design(plane_uv(k0)) @ coef).reshape(T, T, -1)
+    return np.maximum(out, 0.0)
+
+
+def emissive_camera_pass(scene: Scene, E: np.ndarray, wavelength_nm, bandwidth_nm, *, width: int, height: int,
+                         spp: int, seed: int, cells_per_side: int = CAMERA_CELLS) -> np.ndarray:
+    """Radiance (H, W, B) at the camera of the targets emitting ``ρ/π E`` (black otherwise), through the water:
+    Mitsuba ``volpath``, one render per band, ``spp`` paths per pixel each.  ``E`` (S, T, T, B) on the pieces
+    of :func:`rigsim.scene.surfaces.target_surfaces` (object-id order) is averaged to ``cells_per_side``²
+    emitters per piece; ``ρ`` is each piece's reflectance averaged over the band.
+
+    One band per render: with four neighbouring bands in one render (a path's four wavelengths in different
+    bands) a pass took a third of the time but its noise per patch doubled (coastal water, chart at 1 m,
+    32 spp: 1.8 % → 3.4 % rms over the patches) — ``volpath`` draws distances for the path's first
+    wavelength, the other bands' weights are ratios of transmittances."""
+    from rigsim.render.mitsuba_scene import WATER_KEY, MitsubaScene, water_medium_dict
+    from rigsim.render.renderer import render_pass
+    from rigsim.scene.optics import outside_index, world_radius_m
+
+    wl, bw = band_edges(np.asarray(wavelength_nm, float), bandwidth_nm)
+    pieces = [p for t in scene.targets for p in target_surfaces(t, scene.camera)]
+    traced = E.shape[1]
+    if traced % cells_per_side:
+        raise ValueError(f"cells_per_side must divide the tracer's {traced} cells")
+    f = traced // cells_per_side
+    E = E.reshape(E.shape[0], cells_per_side, f, cells_per_side, f, E.shape[-1]).mean(axis=(2, 4))
+    T = cells_per_side
+    rho = np.stack([band_average(np.asarray(p.wavelength_nm, float), np.asarray(p.reflectance, float),
+                                 wl - bw / 2, wl + bw / 2) for p in pieces])
+    cam = np.asarray(scene.camera.position_m, float)
+    cells = []
+    for k, p in enumerate(pieces):
+        if p.shape != "rectangle":
+            raise ConfigError("the hybrid reference handles flat rectangles only (the colorchecker)",
+                              field="targets", allowed="colorchecker")
+        c, u, v, n = (np.asarray(x, float) for x in (p.center_m, p.u_axis, p.v_axis, p.normal))
+        n = n if np.dot(n, cam - c) > 0 else -n
+        hw, hh = p.size_m[0] / 2, p.size_m[1] / 2
+        for iu in range(T):
+            for iv in range(T):
+                cen = c + u * hw * ((iu + 0.5) / T * 2 - 1) + v * hh * ((iv + 0.5) / T * 2 - 1)
+                m = np.eye(4)
+                m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = u * hw / T, v * hh / T, n, cen
+                cells.append((k, iu, iv, mi.ScalarTransform4f(m.tolist())))
+    medium = mi.load_dict(water_medium_dict(scene.water))
+    out = np.zeros((height, width, len(wl)))
+    black = {"type": "diffuse", "reflectance": {"type": "uniform", "value": 0.0}}
+    for bi in range(len(wl)):
+        d = {"type": "scene", "integrator": {"type": "volpath", "max_depth": -1},
+             WATER_KEY: {"type": "sphere", "center": cam.tolist(), "radius": world_radius_m(scene),
+                         "bsdf": {"type": "null"}, "interior": medium}}
+        for j, (k, iu, iv, tw) in enumerate(cells):
+            radiance = max(float(rho[k, bi] / np.pi * E[k, iu, iv, bi]), 0.0)
+            d[f"cell{j}"] = {"type": "rectangle", "to_world": tw, "bsdf": black, "exterior": medium,
+                             "emitter": {"type": "area", "radiance": {"type": "uniform", "value": radiance}}}
+        ms = MitsubaScene(scene=mi.load_dict(d, optimize=False), medium=medium, surfaces=[], mode="full",
+                          n_outside=outside_index(scene))
+        img, _ = render_pass(ms, scene.camera, width=width, height=height, spp=spp, seed=seed + 7 * bi,
+                             band_lo=np.array([wl[bi] - bw[bi] / 2]), band_w=np.array([bw[bi]]))
+        out[..., bi] = img[..., 0]
+    return out
+
+
+def hybrid_reflected(scene: Scene, *, width: int, height: int, wavelength_nm, bandwidth_nm=None,
+                     settings: HybridSettings = HybridSettings(), seed: int = 0) -> tuple[np.ndarray, TargetIrradiance]:
+    """One independent estimate (H, W, B) of the light whose last surface interaction is the chart, at the
+    camera (J/(m² sr nm) per flash): the strobes' irradiance on it by light tracing (``settings.photons``),
+    fitted (``settings.order``; < 0: the traced cells as they are), seen through the water by a camera pass
+    (``settings.spp`` per band).  Returns it and the traced irradiance."""
+    if not supports_hybrid(scene):
+        raise ValueError("the hybrid reference needs one colorchecker lit by strobes only, in water")
+    wl, bw = band_edges(np.asarray(wavelength_nm, float), bandwidth_nm)
+    lt = trace_target_irradiance(scene, wavelength_nm=wl, bandwidth_nm=bw, photons=settings.photons,
+                                 seed=int(seed) & 0xFFFF, batches=4, cells=CELLS)
+    pieces = [p for t in scene.targets for p in target_surfaces(t, scene.camera)]
+    E = lt.irradiance
+    if settings.order >= 0:
+        E = smooth_chart_irradiance(pieces, [p.name for p in pieces], E, lt.cell_area_m2, settings.order)
+    refl = emissive_camera_pass(scene, E, wl, bw, width=width, height=height, spp=settings.spp,
+                                seed=(int(seed) * 104_729 + 17) % 2**31)
+    return refl, lt
+
+
+def hybrid_image(render, reflected: np.ndarray):
+    """A Monte Carlo render (:class:`~rigsim.spectral_image.SpectralImage` with ``flash_backscatter``) whose
+    flash is replaced by its veil (``flash_backscatter``: the paths that met no surface) plus ``reflected``
+    (:func:`hybrid_reflected`: the paths whose last surface is the chart)."""
+    veil = render.layers.get("flash_backscatter")
+    if veil is None:
+        raise ValueError("the render has no flash_backscatter layer")
+    veil = np.asarray(veil, float)
+    if veil.shape != reflected.shape:
+        raise ValueError(f"shapes differ: {veil.shape} vs {reflected.shape}")
+    flash = (veil + reflected).astype(np.asarray(render.layers["flash"]).dtype)
+    meta = {**render.meta, "reference": "hybrid"}
+    return dataclasses.replace(render, layers={**render.layers, "flash": flash}, meta=meta)

@@ -1,0 +1,97 @@
+"""The hybrid reference (:mod:`rigsim.render.hybrid`) against plain Monte Carlo where the renders converge.
+
+Coastal water, the chart 40 % of the field at 1 m, lit by twin strobes: the renders' chart patches have no
+heavy tail there, so the two references of the same image must agree within their noise (Z-tests per patch
+and colour group).  A wrong factor in the light leg (ρ/π, the band averages, the fit) or the camera leg shows
+as a patch-wide offset.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from rigsim.render.hybrid import HybridSettings, hybrid_image, hybrid_reflected, smooth_chart_irradiance, supports_hybrid
+
+pytestmark = pytest.mark.render
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _scene(water="coastal", distance=1.0, rig="twin-strobes-45-wide", target="colorchecker"):
+    from rigsim.config.rig import load_rig
+    from rigsim.scene.build import build_scene
+    from rigsim.scene.optics import field_width_m
+    from rigsim.water import preset
+
+    r = load_rig(ROOT / "rigs" / f"{rig}.toml")
+    return build_scene(r, preset(water), target, distance, size_m=0.4 * field_width_m(r.camera, distance))
+
+
+def test_the_hybrid_reference_agrees_with_monte_carlo_where_the_renders_converge():
+    from rigsim.metrics.agreement import colour_groups, comparison_regions
+    from rigsim.render import render
+
+    scene = _scene()
+    wl = np.arange(420.0, 681.0, 40.0)
+    w, h = 48, 32
+    mc = [render(scene, width=w, height=h, spp=16, seed=11 + i, wavelengths_nm=wl, layers=("object_id", "backscatter"))
+          for i in range(6)]
+    hy = [hybrid_image(mc[i], hybrid_reflected(scene, width=w, height=h, wavelength_nm=wl,
+                                               settings=HybridSettings(photons=200_000, spp=16), seed=5 + i)[0])
+          for i in range(3)]
+    regions = comparison_regions(np.asarray(mc[0].layers["object_id"]), mc[0].meta.get("object_ids", {}),
+                                 "colorchecker")
+    z, rel = [], []
+    for name in ("patch:white 9.5 (.05 D)", "patch:neutral 5 (.70 D)", "patch:blue", "patch:red", "patch:yellow"):
+        m = regions[name]
+        for idx in colour_groups(wl).values():
+            a = np.array([x.radiant_exposure(1.0)[m][:, idx].mean() for x in mc])
+            b = np.array([x.radiant_exposure(1.0)[m][:, idx].mean() for x in hy])
+            se = np.hypot(a.std(ddof=1) / np.sqrt(len(a)), b.std(ddof=1) / np.sqrt(len(b)))
+            z.append((b.mean() - a.mean()) / se)
+            rel.append(b.mean() / a.mean() - 1)
+    z, rel = np.array(z), np.array(rel)
+    assert np.all(np.abs(z) < 4.5), (z, rel)
+    assert abs(np.median(rel)) < 0.03, rel  # no patch-wide offset
+    assert np.all(np.abs(rel) < 0.15), rel
+
+
+def test_the_chart_fit_reproduces_a_quadratic_field_and_pools_the_patches():
+    """A field that is a quadratic in the chart's plane is fitted exactly (patches and body); a noisy one is
+    pooled: the fit's patch means scatter far less than the cells' own."""
+    from rigsim.scene.surfaces import target_surfaces
+
+    scene = _scene(distance=2.0)
+    pieces = [p for t in scene.targets for p in target_surfaces(t, scene.camera)]
+    T = 8
+    g = (np.arange(T) + 0.5) / T * 2 - 1
+    body = next(p for p in pieces if p.name == "chart")
+    c0, u0, v0 = (np.asarray(x, float) for x in (body.center_m, body.u_axis, body.v_axis))
+    E = np.zeros((len(pieces), T, T, 2))
+    for k, p in enumerate(pieces):
+        cen = (np.asarray(p.center_m, float)[None, None] + p.size_m[0] / 2 * g[:, None, None] * np.asarray(p.u_axis)
+               + p.size_m[1] / 2 * g[None, :, None] * np.asarray(p.v_axis))
+        x, y = (cen - c0) @ u0, (cen - c0) @ v0
+        E[k, ..., 0] = 6.0 + 2.0 * x - 3.0 * y + 4.0 * x * y + 5.0 * x * x
+        E[k, ..., 1] = 0.5
+    area = np.full(E.shape[:3], 1e-4)
+    fit = smooth_chart_irradiance(pieces, [p.name for p in pieces], E, area, 2)
+    np.testing.assert_allclose(fit, E, rtol=1e-9, atol=1e-12)
+    rng = np.random.default_rng(1)
+    noisy = E * (1 + 0.2 * rng.standard_normal(E.shape))
+    fit = smooth_chart_irradiance(pieces, [p.name for p in pieces], noisy, area, 2)
+    patches = [k for k, p in enumerate(pieces) if p.name != "chart"]
+    err_raw = np.std([noisy[k, ..., 1].mean() / 0.5 - 1 for k in patches])
+    err_fit = np.std([fit[k, ..., 1].mean() / 0.5 - 1 for k in patches])
+    assert err_fit < err_raw / 2, (err_fit, err_raw)
+
+
+def test_the_hybrid_reference_applies_to_a_chart_lit_by_strobes_only():
+    assert supports_hybrid(_scene())
+    assert not supports_hybrid(_scene(target="black-disk"))
+    assert not supports_hybrid(_scene(rig="video-lights-pair"))
+    with pytest.raises(ValueError, match="colorchecker lit by strobes"):
+        hybrid_reflected(_scene(target="black-disk"), width=8, height=6, wavelength_nm=[450.0, 550.0])
