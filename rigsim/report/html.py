@@ -427,6 +427,10 @@ def trust_sentences(agreement: list[dict], render: dict) -> list[str]:
     return [txt]
 
 
+def _cases_text(n: int) -> str:
+    return "One chart case lit by strobes is" if n == 1 else f"{n} chart cases lit by strobes are"
+
+
 def trust_section(d: Path, agreement: list[dict], spec: dict) -> list[str]:
     """"How far to trust these numbers": per water, the worst deviation of each kind of region and
     metric, and the checked cases' pictures side by side."""
@@ -483,7 +487,13 @@ def trust_section(d: Path, agreement: list[dict], spec: dict) -> list[str]:
            f"spread, so its standard error understates its error).  Every value is in agreement.csv "
            f"(monte_carlo_se, fast_se: the two standard errors; monte_carlo_tail: the largest render over the "
            f"median).</p>"
-           f"<table class='data'>{head}{''.join(trs)}</table>"]
+           + (f"<p>{_cases_text(len({(r['rig'], r['water'], r['target'], r['distance_m']) for r in agreement if r.get('reference') == 'hybrid'}))} "
+              f"referenced by the hybrid estimate instead of plain renders: each reference image "
+              f"is the renders' veil (the light that met no surface) plus the chart's light traced from the strobes and seen "
+              f"through the water by a camera pass (reference = \"hybrid\" in agreement.csv; rigsim.render.hybrid) — in "
+              f"turbid water the renders' chart patches are heavy-tailed, the traced light is not.</p>"
+              if any(r.get("reference") == "hybrid" for r in agreement) else "")
+           + f"<table class='data'>{head}{''.join(trs)}</table>"]
     pics = []
     for case_dir in sorted((d / "checks").glob("*/check.json")):
         rec = json.loads(case_dir.read_text())

@@ -21,3 +21,12 @@ def test_the_trust_table_names_a_heavy_tailed_target_and_not_a_light_tailed_one(
     assert "title='open water, blue, 1 m'>" in html  # the open water's cell: its own tail only
     calm = [_row("patch:red", 0.32, 1.8, "disagrees", 3.0), _row("patch:yellow", 0.02, 1.3, "agrees", 3.0)]
     assert "heavy-tailed on" not in "".join(trust_section(tmp_path, calm, {}))
+
+
+def test_the_trust_table_says_which_cases_are_referenced_by_the_hybrid_estimate(tmp_path):
+    rows = [_row("patch:red", 0.02, 1.1, "agrees"), _row("open water", -0.01, 1.0, "agrees")]
+    assert "hybrid estimate" not in "".join(trust_section(tmp_path, rows, {}))
+    hybrid = [{**r, "reference": "hybrid"} for r in rows] + [
+        {**_row("disk", 0.01, 1.0, "agrees", 3.0), "target": "black-disk", "reference": "monte-carlo"}]
+    html = "".join(trust_section(tmp_path, hybrid, {}))
+    assert "One chart case lit by strobes is referenced by the hybrid estimate" in html
