@@ -26,6 +26,15 @@ Each Monte Carlo render is kept as it finishes (``<out>/<lighting>/mc-renders``,
 bands and render settings — not by where the checkout is, nor by the fast engine): a run asked for more renders
 (``--max-seeds``) renders only the new ones, and ``--renders-from`` checks a changed fast engine against the same
 references without rendering them again.
+
+``--reference hybrid``: the chart cases lit by strobes are referenced by hybrid images instead
+(:mod:`rigsim.render.hybrid`: the renders' veil plus the chart's light traced from the strobes and seen
+through the water by a camera pass; kept beside the renders), where the renders' chart patches are
+heavy-tailed (Jerlov III, 5C-9C); the disk and daylight cases stay renders.
+
+    python benchmarks/bench_fast_engine_agreement.py --waters jerlov-7C,jerlov-9C --distances 1,3 \
+        --rigs twin-strobes-edge-lighting --depths '' --spp 32 --seeds 4 --max-seeds 8 --reference hybrid \
+        --hybrid-photons 2000000 --hybrid-spp 128 --out out/agree-hybrid
 """
 
 from __future__ import annotations
@@ -78,6 +87,7 @@ target_se = {target_se}
 reference = "{reference}"
 hybrid_photons = {hybrid_photons}
 hybrid_spp = {hybrid_spp}
+hybrid_veil_renders = {hybrid_veil}
 """
 
 
@@ -130,6 +140,10 @@ def main(argv=None) -> int:
                          "renders' chart patches are heavy-tailed); the disk and daylight cases stay renders")
     ap.add_argument("--hybrid-photons", type=int, default=1_000_000, help="light-tracer photons per hybrid image")
     ap.add_argument("--hybrid-spp", type=int, default=64, help="camera-pass paths per pixel and band per hybrid image")
+    ap.add_argument("--hybrid-veil-renders", type=int, default=4,
+                    help="renders whose veil each hybrid image averages (the veil over a 30-pixel patch is the hybrid's "
+                         "noisiest part: Jerlov 7C, edge-lit rig at 1 m, 32 renders of 32 spp left it 1-6 %% of a patch's "
+                         "light, the camera passes 0.2-0.8 %%)")
     ap.add_argument("--publish", action="store_true",
                     help=f"write the per-water summary to {PUBLISHED.relative_to(ROOT)} (the rig designer shows it)")
     args = ap.parse_args(argv)
@@ -157,7 +171,8 @@ def main(argv=None) -> int:
                                   target_se=args.target_se if name == "strobes" or args.daylight_target_se is None
                                   else args.daylight_target_se,
                                   ms=args.multiple_scattering, reference=args.reference,
-                                  hybrid_photons=args.hybrid_photons, hybrid_spp=args.hybrid_spp).replace("'", '"'))
+                                  hybrid_photons=args.hybrid_photons, hybrid_spp=args.hybrid_spp,
+                                  hybrid_veil=args.hybrid_veil_renders).replace("'", '"'))
         spec = load_study(f)
         if args.renders_from is not None:
             src, dst = args.renders_from.resolve() / name / MC_RENDERS, args.out / name / MC_RENDERS
@@ -181,7 +196,10 @@ def main(argv=None) -> int:
 
         depths = ", ".join(f"{float(d):g}" for d in _list(args.depths))
         ms = "" if args.multiple_scattering == "off" else f", multiple scattering {args.multiple_scattering}"
-        settings = f"{w}x{h} px{ms}, Monte Carlo {args.seeds}-{max(args.seeds, args.max_seeds)} x {args.spp} spp, " + "; ".join(
+        hyb = (f", strobe-lit charts referenced by the hybrid estimate ({args.hybrid_photons} photons, "
+               f"{args.hybrid_spp} spp per band, {args.hybrid_veil_renders} renders' veil per image)"
+               if args.reference == "hybrid" else "")
+        settings = f"{w}x{h} px{ms}, Monte Carlo {args.seeds}-{max(args.seeds, args.max_seeds)} x {args.spp} spp{hyb}, " + "; ".join(
             x for x in (f"rigs {', '.join(rigs)}" if rigs else "",
                         f"daylight: ambient-only at {depths} m, sun at 30 deg" if depths else "") if x)
         write_published(rows, PUBLISHED, settings=settings)
