@@ -15,9 +15,10 @@ What it traces
 Everything physical is the Mitsuba scene :func:`rigsim.render.mitsuba_scene.build_mitsuba_scene` loads for
 a render — the same objects the camera paths of ``rigsim render`` use, not a copy:
 
-* **emission**: each light's :class:`~rigsim.render.emitter_plugin.BeamPointEmitter` ``sample_ray`` (its
-  beam pattern and intensity spectrum; four wavelengths per photon drawn from the spectrum, shifted by a
-  quarter of its distribution from each other);
+* **emission**: each light's :class:`~rigsim.render.emitter_plugin.BeamPointEmitter` — its position, its
+  intensity spectrum (``intensity_at``) and beam pattern (``beam_pattern``); directions are drawn ∝ the
+  pattern by :func:`rigsim.light.beam.sample_beam_direction` (weight ``f(θ)/pdf``), four wavelengths per
+  photon spread evenly over the bands (a quarter of their span apart, weight ``I(λ) · span``);
 * **flights**: the water medium's ``σ_t``, ``σ_s`` at the photon's four wavelengths.  The distance is drawn
   with the ``σ_t`` of one of the four, chosen at random, and every wavelength is weighted by the mixture of
   the four distance densities (one-sample MIS, balance heuristic; weights ≤ 4× the albedo);
