@@ -68,7 +68,7 @@ mi, dr = mitsuba()
 
 #: Scatterings/reflections after which Russian roulette may end a photon (survival ∝ its throughput).
 ROULETTE_DEPTH = 8
-#: Photons traced at once (memory: ~80 bytes each).
+#: Photons traced at once (memory: ~80 bytes each); each chunk's float32 tally is summed in float64.
 CHUNK = 1 << 21
 _MAX_BOUNCES = 2000
 #: Cells in θ of the beam's density as the MIS weights read it.
@@ -197,15 +197,17 @@ def trace_target_irradiance(scene: Scene, *, wavelength_nm, bandwidth_nm=None, p
     per_batch = max(1, per_light // batches)
     n_light = per_batch * batches
     deepest = 0
+    raw = np.zeros(batches * S * T * T * B)  # float64: each chunk's float32 tally is added here
     for li, light in enumerate(lights):
         em = min(emitters, key=lambda e: float(np.linalg.norm(e.p_scalar - np.asarray(light.position_m, float))))
         for start in range(0, n_light, CHUNK):
             n = min(CHUNK, n_light - start)
+            geo.tally = dr.zeros(mi.Float, raw.size)
             deepest = max(deepest, _trace_chunk(ms, em, light, medium, phase, geo, start, n, li, seed, batches,
                                                 nee=nee))
-    tally = geo.tally
-    dr.eval(tally)
-    raw = np.asarray(tally, np.float64).reshape(batches, S, T, T, B)
+            dr.eval(geo.tally)
+            raw += np.asarray(geo.tally, np.float64)
+    raw = raw.reshape(batches, S, T, T, B)
     # each photon's four wavelengths are four estimates: / 4; per batch, per_batch photons of each light
     E_b = raw / (4.0 * per_batch) / areas[None, :, :, :, None] / bw[None, None, None, None, :]
     E_b = np.where(np.isfinite(areas)[None, :, :, :, None], E_b, 0.0)
@@ -400,7 +402,7 @@ def _trace_chunk(ms, em, light, medium, phase, geo: _Targets, start, n, li, seed
         mei.wi = -d
         mei.sh_frame = mi.Frame3f(mei.wi)
         mei.sigma_s, mei.sigma_t = sigma_s, sigma_t
-        if nee:
+        if nee and phase is not None:
             k0, y, ny = geo.sample(_u(gid, dim + 2, seed32), _u(gid, dim + 3, seed32), _u(gid, dim + 4, seed32))
 
             def value(dd, mei=mei):
@@ -412,12 +414,15 @@ def _trace_chunk(ms, em, light, medium, phase, geo: _Targets, start, n, li, seed
                 return p
 
             _nee(ms, geo, sigma, x, y, k0, ny, wav, batch, scat, A, value, pdf)
-        wo, pw, ppdf = phase.sample(ctx_phase, mei, _u(gid, dim + 5, seed32),
-                                    mi.Point2f(_u(gid, dim + 6, seed32), _u(gid, dim + 7, seed32)), scat)
-        beta = dr.select(scat, beta * pw, beta)
-        d_new = dr.select(scat, wo, d)
-        o_new = dr.select(scat, x, o)
-        pdf_new = dr.select(scat, ppdf, pdf_dir)
+        if phase is not None:
+            wo, pw, ppdf = phase.sample(ctx_phase, mei, _u(gid, dim + 5, seed32),
+                                        mi.Point2f(_u(gid, dim + 6, seed32), _u(gid, dim + 7, seed32)), scat)
+            beta = dr.select(scat, beta * pw, beta)
+            d_new = dr.select(scat, wo, d)
+            o_new = dr.select(scat, x, o)
+            pdf_new = dr.select(scat, ppdf, pdf_dir)
+        else:  # no water: nothing scatters
+            d_new, o_new, pdf_new = d, o, pdf_dir
         # a reflection (the water's boundary ends the photon)
         reflect = surf & ~geo.leaves(si, surf)
         bsdf = si.bsdf(ray)
