@@ -15,16 +15,20 @@ is easy.  The reference here splits every path at its last surface interaction:
    or more into turbid water changes over decimetres, a patch is 4 cm; the fit pools the 24 patches' photons);
 2. **the camera leg**: Mitsuba's ``volpath`` through the same water with the targets black and *emitting*
    ``ρ/π E`` (:func:`emissive_camera_pass`, one render per band);
-3. **the veil**: the renderer's own ``backscatter`` layer (light of paths that never meet a surface; no
-   such tail) — of the Monte Carlo render each hybrid image is built on (:func:`hybrid_image`).
+3. **the veil**: the renderer's own ``backscatter`` layer (light of paths that never meet a surface) — of
+   the Monte Carlo renders each hybrid image is built on (:func:`hybrid_image`).  Over open water it has no
+   tail (largest of 32 renders 1.1–1.3× the median in Jerlov 7C and 9C); over the chart's patches, in front
+   of which the edge-lit rig's beams cross, it can have one (9C at 1 m: one render 15× the median over the
+   moderate red patch's blue, the veil's SE there 19 % of the patch's light): the hybrid does not remove
+   that part of the renders' tail.
 
 Each hybrid image is an independent estimate (its own photons, camera paths and render), so the agreement
 check (:func:`rigsim.metrics.agreement.compare_renders`) takes their mean and spread as it takes renders'.
 
 Measured (``benchmarks/bench_reference_hybrid.py``): where Monte Carlo converges (coastal water, chart at
 1 m) hybrid / Monte Carlo − 1 has median −0.1 % over the 72 patch cells, within the renders' 1–3 %; in Jerlov
-7C with the edge-lit rig at 1 m the fast engine reads within a few per cent of the hybrid where 16 renders of
-Monte Carlo scatter by ±40 %.
+7C with the edge-lit rig at 1 m no cell of the fast engine is beyond tolerance + t·SE from it where 16 renders of
+Monte Carlo scatter by ±40 % (and in 9C at 1 m none either, with the veil's noise above).
 """
 
 from __future__ import annotations
