@@ -136,6 +136,8 @@ def main(argv=None) -> int:
                     help="fit the patches' light-traced irradiance with a polynomial of this order in the chart's plane "
                          "(smooth_chart_irradiance); -1: each texture cell's own (default)")
     a = ap.parse_args(argv)
+    if a.camera_seeds < 2 or a.camera_spp < a.camera_seeds:
+        ap.error("--camera-seeds must be ≥ 2 and ≤ --camera-spp")
     w, h = (int(x) for x in a.size.lower().split("x"))
 
     from rigsim.config.rig import load_rig
@@ -204,8 +206,6 @@ def main(argv=None) -> int:
     else:
         E_batches = batch_E
     t0 = time.perf_counter()
-    if a.camera_seeds < 2 or a.camera_spp < a.camera_seeds:
-        raise SystemExit("--camera-seeds must be ≥ 2 and ≤ --camera-spp")
     from rigsim.render.hybrid import emissive_camera_pass
 
     passes = [emissive_camera_pass(scene, E, wl, bw, width=w, height=h, spp=a.camera_spp // a.camera_seeds,

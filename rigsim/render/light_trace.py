@@ -167,6 +167,8 @@ def trace_target_irradiance(scene: Scene, *, wavelength_nm, bandwidth_nm=None, p
     lights = [l for l in lights if np.any(np.asarray(l.axial_intensity, float) > 0)]
     if batches < 2:
         raise ValueError("batches must be ≥ 2 (the standard error)")
+    if mode not in ("full", "direct"):
+        raise ValueError("mode must be 'full' or 'direct'")
     wl = np.asarray(wavelength_nm, float)
     wl, bw = band_edges(wl, bandwidth_nm)
     lo, hi = wl - bw / 2, wl + bw / 2
@@ -180,8 +182,6 @@ def trace_target_irradiance(scene: Scene, *, wavelength_nm, bandwidth_nm=None, p
         z = np.zeros((max(S, 0), T, T, B))
         return TargetIrradiance(z, np.zeros((batches,) + z.shape), areas, labels, 0,
                                 time.perf_counter() - t0, 0)
-    if mode not in ("full", "direct"):
-        raise ValueError("mode must be 'full' or 'direct'")
     ms = build_mitsuba_scene(scene, lights=lights, mode=mode)
     labels = tuple(s.label for s in ms.surfaces)
     emitters = list(ms.scene.emitters())
@@ -257,7 +257,7 @@ class _Targets:
         self.cdf = mi.Float((np.cumsum(area) / area.sum()).astype(np.float32))
         self.shapes = [(sh, ms.shape_ids.get(sh.id())) for sh in ms.scene.shapes()]
         self.boundary = [sh for sh in ms.scene.shapes() if sh.id() == WATER_KEY]
-        self.tally = dr.zeros(mi.Float, batches * max(self.S, 1) * T * T * B)
+        self.tally = None  # the current chunk's (float32), set by trace_target_irradiance
 
     def object_of(self, si, mask):
         """Object id (Int32, 0: none) of the surface hits ``si``."""

@@ -233,7 +233,9 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
                 _write_render(f, img)
         return img
 
-    hybrid = ck.reference == "hybrid" and _supports_hybrid(scene)
+    from rigsim.render.hybrid import supports_hybrid
+
+    hybrid = ck.reference == "hybrid" and supports_hybrid(scene)
 
     def reference(i):
         """Reference image ``i``: render ``i``; or (hybrid) the mean of renders ``i·k … i·k + k − 1`` (k
@@ -283,12 +285,6 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
     fast_rgb, shown = srgb_preview(fast)  # one exposure for both pictures: the fast image's
     mc_rgb, _ = srgb_preview(_mean_image(refs), scale=shown["xyz_scale"])
     return {"record": record, "files": {"fast.png": png_bytes(fast_rgb), "monte-carlo.png": png_bytes(mc_rgb)}}
-
-
-def _supports_hybrid(scene) -> bool:
-    from rigsim.render.hybrid import supports_hybrid
-
-    return supports_hybrid(scene)
 
 
 def _write_array(path, a: np.ndarray) -> None:
