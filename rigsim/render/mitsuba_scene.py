@@ -207,7 +207,7 @@ def forget_scenes_except(scene: Scene) -> None:
 
 
 def build_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: int = -1,
-                        rr_depth: int = 5, phase=None, integrator: str = "rigsim",
+                        rr_depth: int | None = None, phase=None, integrator: str = "rigsim",
                         ambient=None, backscatter_aov: bool = False, flat_shapes: str = "mesh",
                         particles: bool = True) -> MitsubaScene:
     """Load the Mitsuba scene of one render pass (or reuse the one loaded last time for the same
@@ -237,7 +237,7 @@ def build_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: 
 
 
 def _load_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: int = -1,
-                        rr_depth: int = 5, phase=None, integrator: str = "rigsim",
+                        rr_depth: int | None = None, phase=None, integrator: str = "rigsim",
                         ambient=None, backscatter_aov: bool = False, flat_shapes: str = "mesh",
                         particles: bool = True) -> MitsubaScene:
     """Load the Mitsuba scene of one render pass.
@@ -252,7 +252,8 @@ def _load_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: 
     mode
         One of :data:`MODES`.
     max_depth, rr_depth
-        Path length limit (−1: none) and the depth at which Russian roulette starts.
+        Path length limit (−1: none) and the depth at which Russian roulette starts (None: the
+        integrator's own default).
     phase
         Replace the water's phase function by this Mitsuba phase (dict or object),
         e.g. ``{"type": "hg", "g": 0.9}`` for comparisons.

@@ -303,6 +303,38 @@ def test_next_event_extras_are_unbiased_per_pixel(max_depth, two_lights):
     _assert_consistent(z, z_mean, 8)
 
 
+#: The integrator's options before 2026-12-05: the light-directed share at every depth, roulette from depth 5.
+_BEFORE_DEEP_DEFAULTS = {"light_directed_depth": 1 << 30, "rr_depth": 5, "rr_depth_max": 5}
+
+
+def test_fewer_deep_light_directed_directions_and_later_roulette_are_unbiased_per_pixel():
+    """The defaults (a smaller light-directed share from ``DEFAULT_LIGHT_DIRECTED_DEPTH`` on, Russian
+    roulette from ``DEFAULT_RR_DEPTH``) change only the noise: per-pixel Z-test at max_depth 8 against
+    the options before (the share at every depth, roulette from depth 5), in coastal water (albedo 0.94)."""
+    a, b = _pair(8, n=8, spp=512, reference=_BEFORE_DEEP_DEFAULTS)
+    z, z_mean = _ztest(a, b)
+    _assert_consistent(z, z_mean, 8)
+
+
+class _DeepShareMissingFromTheDensity(RigsimVolIntegrator):
+    """Draws deep directions with the smaller light-directed share but reports the density of the full
+    share (a mixture density that does not match its sampling)."""
+
+    def _directed_pdf(self, wo, pdf_wo, axes, aureole, c=None):
+        return super()._directed_pdf(wo, pdf_wo, axes, aureole, None)
+
+
+def test_ztest_flags_a_deep_share_missing_from_the_density():
+    props = mi.Properties(PLUGIN_NAME)
+    props["max_depth"] = 8
+    props["light_directed_depth"] = 1
+    a, b = _pair(8, n=8, spp=256, integrator=_DeepShareMissingFromTheDensity(props),
+                 reference=_BEFORE_DEEP_DEFAULTS)
+    z, z_mean = _ztest(a, b)
+    with pytest.raises(AssertionError):
+        _assert_consistent(z, z_mean, 8)
+
+
 class _WrongMIS(RigsimVolIntegrator):
     """Balance heuristic with the other technique's pdf halved: weights sum to > 1 (overcounting)."""
 

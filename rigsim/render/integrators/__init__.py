@@ -38,16 +38,21 @@ mi, dr = mitsuba()
 INTEGRATORS = {"rigsim": PLUGIN_NAME, "volpath": "volpath"}
 
 
-def integrator_dict(name: str = "rigsim", *, max_depth: int = -1, rr_depth: int = 5,
+def integrator_dict(name: str = "rigsim", *, max_depth: int = -1, rr_depth: int | None = None,
                     backscatter_aov: bool = False) -> dict:
     """Mitsuba dict of integrator ``name`` (a key of :data:`INTEGRATORS`).
+
+    ``rr_depth``: the depth Russian roulette starts at (None: the integrator's own default,
+    :data:`~rigsim.render.integrators.strobe.DEFAULT_RR_DEPTH` for rigsim, 5 for volpath).
 
     ``backscatter_aov`` (rigsim only): the integrator also returns the backscatter estimate
     of each path as AOVs (see :meth:`RigsimVolIntegrator.aov_names`).
     """
     if name not in INTEGRATORS:
         raise ConfigError(f"unknown integrator {name!r}", field="integrator", allowed=", ".join(INTEGRATORS))
-    d = {"type": INTEGRATORS[name], "max_depth": int(max_depth), "rr_depth": int(rr_depth)}
+    d = {"type": INTEGRATORS[name], "max_depth": int(max_depth)}
+    if rr_depth is not None or name == "volpath":
+        d["rr_depth"] = int(5 if rr_depth is None else rr_depth)
     if backscatter_aov:
         if name != "rigsim":
             raise ConfigError("only the rigsim integrator returns backscatter AOVs", field="integrator",

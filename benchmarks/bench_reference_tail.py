@@ -1,0 +1,144 @@
+"""Benchmark: the heavy tail of the Monte Carlo reference in turbid, high-albedo water, before and after.
+
+A chart case of the agreement table (``twin-strobes-edge-lighting``, ColorChecker 40 % of the field) is
+rendered by the renderer's own camera paths (:func:`rigsim.render.renderer.render_pass`, one band of
+10 nm) with two sets of ``rigsim_vol`` options, in the same run, alternating chunks so that load from
+other processes hits both alike:
+
+* **before**: the light-directed share 0.4 at every vertex, Russian roulette from depth 5 (the options
+  until 2026-12-05);
+* **after**: the integrator's defaults (:data:`rigsim.render.integrators.strobe.DEFAULT_LIGHT_DIRECTED_DEEP`
+  from :data:`~rigsim.render.integrators.strobe.DEFAULT_LIGHT_DIRECTED_DEPTH`, roulette from
+  :data:`~rigsim.render.integrators.strobe.DEFAULT_RR_DEPTH`).
+
+Over the image's pixels (``--region chart``: the chart's) it prints, for the image (``full``) and for the backscatter layer (``veil``,
+the AOV of the same paths): the mean (and the two means' difference over its standard error, from the
+chunks' scatter: both are unbiased, so |z| should be small), the share of the sum held by the largest
+pixel sample and the largest 100, the relative variance per path ``relvar = n_paths · Σv² / (Σv)²``
+(v: a pixel's mean over its ``--spp`` paths, times ``--spp``; the between-pixel spread adds the same to
+both) and the time, and the ratio of ``relvar × time`` before / after: how many times less time the
+reference needs for the same noise.  Heavy tails make single runs erratic: use ≥ 10 000 000 paths.
+
+    python benchmarks/bench_reference_tail.py                       # 5 cases, ~25 min on 2 cores
+    python benchmarks/bench_reference_tail.py --cases jerlov-9C:1 --paths 2000000
+
+Measured 2026-12-05 (2 cores, 6 182 400 paths per setting, 450 nm, chart pixels; per-path sample
+statistics of one run; see the module docstring of :mod:`rigsim.render.integrators.strobe`).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from rigsim.config.rig import load_rig  # noqa: E402
+from rigsim.preview import render_preview  # noqa: E402
+from rigsim.render.integrators import integrator_dict, with_integrator  # noqa: E402
+from rigsim.render.mitsuba_scene import build_mitsuba_scene  # noqa: E402
+from rigsim.render.renderer import render_pass  # noqa: E402
+from rigsim.scene.build import build_scene  # noqa: E402
+from rigsim.scene.optics import field_width_m  # noqa: E402
+from rigsim.water import preset  # noqa: E402
+
+#: The options before 2026-12-05 (light-directed share 0.4 at every depth, roulette from depth 5).
+BEFORE = {"light_directed_depth": 1 << 30, "rr_depth": 5, "rr_depth_max": 5}
+CASES = "jerlov-9C:1,jerlov-7C:3,jerlov-5C:3,jerlov-III:3,coastal:1"
+
+
+def _stats(v: np.ndarray, spp: int) -> dict:
+    v = np.where(np.isfinite(v), v, 0.0).ravel()
+    s = np.sort(v)[::-1]
+    tot = v.sum()
+    return {"mean": v.mean(), "top1": s[0] / tot, "top100": s[:100].sum() / tot,
+            "relvar": spp * len(v) * (v ** 2).sum() / tot ** 2}
+
+
+def run_case(water: str, distance_m: float, *, paths: int, spp: int, width: int, height: int,
+             wavelength_nm: float, region: str = "all") -> dict:
+    rig = load_rig(ROOT / "rigs" / "twin-strobes-edge-lighting.toml")
+    scene = build_scene(rig, preset(water), "colorchecker", distance_m,
+                        size_m=0.4 * field_width_m(rig.camera, distance_m))
+    strobes = [light for light in scene.lights if light.kind == "strobe"]
+    ms = build_mitsuba_scene(scene, lights=strobes, mode="full", backscatter_aov=True)
+    settings = {"before": with_integrator(ms, {**integrator_dict("rigsim", backscatter_aov=True), **BEFORE}),
+                "after": with_integrator(ms, integrator_dict("rigsim", backscatter_aov=True))}
+    oid = np.asarray(render_preview(scene, width=width, height=height, wavelengths_nm=[wavelength_nm],
+                                    multiple=False, layers=("object_id",)).layers["object_id"])
+    chart = oid > 0 if region == "chart" else np.ones_like(oid, bool)
+    lo, bw = np.array([wavelength_nm - 5.0]), np.array([10.0])
+    per_chunk = spp * width * height
+    n_chunks = max(2, -(-paths // per_chunk))
+    out = {k: {"full": [], "veil": [], "sec": 0.0} for k in settings}
+    for k, m in settings.items():  # compile outside the timing
+        render_pass(m, scene.camera, width=width, height=height, spp=spp, seed=1, band_lo=lo, band_w=bw,
+                    aov_out={})
+    for i in range(n_chunks):
+        for k, m in settings.items():
+            aov: dict = {}
+            t0 = time.perf_counter()
+            img, _ = render_pass(m, scene.camera, width=width, height=height, spp=spp, seed=1000 + i,
+                                 band_lo=lo, band_w=bw, aov_out=aov)
+            out[k]["sec"] += time.perf_counter() - t0
+            out[k]["full"].append(img[..., 0][chart])
+            out[k]["veil"].append(aov["backscatter"][..., 0][chart])
+    res = {"paths": n_chunks * spp * int(chart.sum()), "chunks": n_chunks}
+    for k in settings:
+        res[k] = {"sec": out[k]["sec"]}
+        for part in ("full", "veil"):
+            a = np.stack(out[k][part])
+            st = _stats(a, spp)
+            st["chunk_means"] = a.mean(axis=1)
+            res[k][part] = st
+    return res
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--cases", default=CASES, help="water:distance_m, comma-separated")
+    ap.add_argument("--paths", type=int, default=12_000_000, help="paths per setting per case over the whole image")
+    ap.add_argument("--spp", type=int, default=16, help="paths per pixel per chunk")
+    ap.add_argument("--width", type=int, default=96)
+    ap.add_argument("--height", type=int, default=64)
+    ap.add_argument("--wavelength", type=float, default=450.0, help="band centre, nm (10 nm wide)")
+    ap.add_argument("--region", choices=("all", "chart"), default="all",
+                    help="pixels whose samples are pooled: the whole image or the chart's")
+    a = ap.parse_args(argv)
+    cases = []
+    for c in a.cases.split(","):
+        try:
+            w, d = c.split(":")
+            cases.append((w, float(d)))
+        except ValueError:
+            ap.error(f"--cases: {c!r} is not water:distance_m")
+    if a.paths < 1 or a.spp < 1:
+        ap.error("--paths and --spp must be >= 1")
+    print(f"twin-strobes-edge-lighting, ColorChecker 0.4 of the field, {a.width}x{a.height}, {a.wavelength:g} nm; "
+          f"before = {BEFORE}, after = the integrator's defaults; pixels: {a.region}")
+    print(f"{'case':>16s} {'part':>4s} {'setting':>7s} {'mean':>10s} {'top1':>7s} {'top100':>7s} {'relvar':>9s} "
+          f"{'time s':>7s} {'relvar*t':>10s}")
+    for w, d in cases:
+        r = run_case(w, d, paths=a.paths, spp=a.spp, width=a.width, height=a.height, wavelength_nm=a.wavelength,
+                     region=a.region)
+        for part in ("full", "veil"):
+            eff = {}
+            for k in ("before", "after"):
+                s = r[k][part]
+                eff[k] = s["relvar"] * r[k]["sec"]
+                print(f"{w + ' ' + format(d, 'g') + ' m':>16s} {part:>4s} {k:>7s} {s['mean']:10.4g} {s['top1']:7.4f} "
+                      f"{s['top100']:7.4f} {s['relvar']:9.1f} {r[k]['sec']:7.1f} {eff[k]:10.0f}")
+            ca, cb = r["before"][part]["chunk_means"], r["after"][part]["chunk_means"]
+            z = (cb.mean() - ca.mean()) / np.sqrt(ca.var(ddof=1) / len(ca) + cb.var(ddof=1) / len(cb))
+            print(f"{'':>16s} {part:>4s} after/before mean {cb.mean() / ca.mean():.4f} (z {z:+.2f}); "
+                  f"relvar x time before/after = {eff['before'] / eff['after']:.1f}x")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
