@@ -69,7 +69,7 @@ estimation), ``L_ind`` everything else.
   ``value / mixture density``.  From a path's vertex ``light_directed_depth`` (4) on the share
   is ``light_directed_deep`` (0.2): a direction drawn from the phase function weighs up to
   ``1/(1 − share)``, and over the tens of vertices of a path in turbid, high-albedo water (in
-  Jerlov 9C a fifth of the veil at 450 nm is light scattered more than ten times) the paths that
+  Jerlov 9C a fifth of the veil at 450 nm is light scattered ten times or more) the paths that
   keep drawing from the phase function grow like ``1.67ⁿ``: the largest of 2 000 000 camera paths
   over an edge-lit chart at 1 m held 5 % of their sum, its throughput 2.85 at depth 16 (a path's
   mean there is the albedo to the 16th, ~0.04).  Near the camera, where the paths meet the
