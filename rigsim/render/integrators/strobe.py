@@ -254,7 +254,7 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
         self.rr_depth = int(props.get("rr_depth", 5))
         if self.rr_depth < 1:
             raise ConfigError(f"rr_depth must be >= 1, got {self.rr_depth}", field="integrator.rr_depth")
-        self.rr_depth_max = int(props.get("rr_depth_max", DEFAULT_RR_DEPTH_MAX))
+        self.rr_depth_max = int(props.get("rr_depth_max", max(DEFAULT_RR_DEPTH_MAX, self.rr_depth)))
         if self.rr_depth_max < self.rr_depth:
             raise ConfigError(f"rr_depth_max must be >= rr_depth ({self.rr_depth}), got {self.rr_depth_max}",
                               field="integrator.rr_depth_max")
