@@ -42,8 +42,9 @@ def integrator_dict(name: str = "rigsim", *, max_depth: int = -1, rr_depth: int 
                     backscatter_aov: bool = False) -> dict:
     """Mitsuba dict of integrator ``name`` (a key of :data:`INTEGRATORS`).
 
-    ``rr_depth``: the depth Russian roulette starts at (None: the integrator's own default,
-    :data:`~rigsim.render.integrators.strobe.DEFAULT_RR_DEPTH` for rigsim, 5 for volpath).
+    ``rr_depth``: the depth Russian roulette starts at (None: the integrator's own default — for
+    rigsim from 5 to :data:`~rigsim.render.integrators.strobe.DEFAULT_RR_DEPTH_MAX` by the water's
+    albedo, see its module docstring; 5 for volpath).
 
     ``backscatter_aov`` (rigsim only): the integrator also returns the backscatter estimate
     of each path as AOVs (see :meth:`RigsimVolIntegrator.aov_names`).

@@ -66,7 +66,7 @@ estimation), ``L_ind`` everything else.
   defensive mixture: with probability ``light_directed`` (0.4) around a light, at
   angle α from it uniform in α (density ``1/(2π² sin α)`` ∝ ``1/α``, so ``1/D`` is
   cancelled), otherwise from the phase function (BSDF); the weight is
-  ``value / mixture density``.  From a path's vertex ``light_directed_depth`` (4) on the share
+  ``value / mixture density``.  From depth ``light_directed_depth`` (4: a path's fifth vertex) on the share
   is ``light_directed_deep`` (0.2): a direction drawn from the phase function weighs up to
   ``1/(1 − share)``, and over the tens of vertices of a path in turbid, high-albedo water (in
   Jerlov 9C a fifth of the veil at 450 nm is light scattered ten times or more) the paths that
@@ -206,7 +206,8 @@ DEFAULT_PHASE_WEIGHTED = 0.75
 DEFAULT_LIGHT_DIRECTED = 0.4
 #: The share from vertex :data:`DEFAULT_LIGHT_DIRECTED_DEPTH` of a path on (see :attr:`RigsimVolIntegrator.cone_deep`).
 DEFAULT_LIGHT_DIRECTED_DEEP = 0.2
-#: The depth (vertices after the camera) from which :data:`DEFAULT_LIGHT_DIRECTED_DEEP` applies.
+#: The depth from which :data:`DEFAULT_LIGHT_DIRECTED_DEEP` applies (the loop's ``depth``: segments traced before
+#: the vertex; 4 is a path's fifth scattering vertex or surface).
 DEFAULT_LIGHT_DIRECTED_DEPTH = 4
 #: Russian roulette lifts the throughput of surviving paths to at most this (instead of 1):
 #: a path whose weight fell to 1e-4 (a direction drawn toward a light, where the phase
