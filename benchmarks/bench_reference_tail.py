@@ -129,6 +129,12 @@ def main(argv=None) -> int:
             cases.append((w, float(d)))
         except ValueError:
             ap.error(f"--cases: {c!r} is not water:distance_m")
+        try:
+            preset(w)
+        except Exception as e:  # a one-line usage error, not a traceback
+            ap.error(f"--cases: {e}")
+        if not float(d) > 0:
+            ap.error(f"--cases: distance {d} m must be > 0")
     if a.paths < 1 or a.spp < 1:
         ap.error("--paths and --spp must be >= 1")
     print(f"twin-strobes-edge-lighting, ColorChecker 0.4 of the field, {a.width}x{a.height}, {a.wavelength:g} nm; "
