@@ -84,9 +84,11 @@ def run_case(water: str, distance_m: float, *, paths: int, spp: int, width: int,
     ms = build_mitsuba_scene(scene, lights=strobes, mode="full", backscatter_aov=True)
     settings = {"before": with_integrator(ms, {**integrator_dict("rigsim", backscatter_aov=True), **BEFORE}),
                 "after": with_integrator(ms, integrator_dict("rigsim", backscatter_aov=True))}
-    oid = np.asarray(render_preview(scene, width=width, height=height, wavelengths_nm=[wavelength_nm],
-                                    multiple=False, layers=("object_id",)).layers["object_id"])
-    chart = oid > 0 if region == "chart" else np.ones_like(oid, bool)
+    if region == "chart":  # the chart's pixels: the fast engine's object ids (no Monte Carlo needed for them)
+        chart = np.asarray(render_preview(scene, width=width, height=height, wavelengths_nm=[wavelength_nm],
+                                          multiple=False, layers=("object_id",)).layers["object_id"]) > 0
+    else:
+        chart = np.ones((height, width), bool)
     lo, bw = np.array([wavelength_nm - 5.0]), np.array([10.0])
     per_chunk = spp * width * height
     n_chunks = max(2, -(-paths // per_chunk))
