@@ -310,16 +310,19 @@ def _read_array(path, shape: tuple):
 def cached_render_dir(root, spec: StudySpec, case: Case):
     """The folder of a check's kept Monte Carlo renders below ``root``: one per scene (the case's inputs, its
     files by their contents — the same in any checkout: :meth:`StudySpec.content_key`), seed, bands and
-    setting of a render (size, paths per pixel, integrator); not per ``seeds`` / ``max_seeds`` /
+    setting of a render (size, paths per pixel, integrator and its default sampling options:
+    :func:`rigsim.render.integrators.integrator_key`); not per ``seeds`` / ``max_seeds`` /
     ``target_se``, which only say how many, nor per setting of the fast engine (a change to it is checked
     against the same renders)."""
     import hashlib
     import json
     from pathlib import Path
 
+    from rigsim.render.integrators import integrator_key
+
     ck = spec.check
     key = {"case": spec.content_key(case), "seed": spec.seed, "wavelengths_nm": [float(x) for x in spec.render.wavelengths_nm],
-           "render": [ck.width, ck.height, ck.spp, ck.integrator]}
+           "render": [ck.width, ck.height, ck.spp, ck.integrator], "sampler": integrator_key(ck.integrator)}
     h = hashlib.sha1(json.dumps(key, sort_keys=True).encode()).hexdigest()[:10]
     prefix = spec.case_id(case).rsplit("__", 1)[0]  # rig, water, target, distance (readable)
     return Path(root) / f"{prefix}__{ck.width}x{ck.height}-{ck.spp}spp-{ck.integrator}__{h}"

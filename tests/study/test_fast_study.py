@@ -148,6 +148,11 @@ def test_a_checks_monte_carlo_renders_are_kept_and_only_the_missing_ones_rendere
     (other / "rigs" / rig.name).write_text(rig.read_text() + "\n# another rig file (a comment: its contents differ)\n")
     changed = load_study(tmp_path / "fast.toml")
     assert cached_render_dir(cache, changed, changed.check_cases()[0]) != cached_render_dir(cache, spec, case)
+    # renders drawn by another sampler (the integrator's default options) are not the same renders
+    import rigsim.render.integrators.strobe as strobe
+
+    monkeypatch.setattr(strobe, "DEFAULT_LIGHT_DIRECTED_DEEP", strobe.DEFAULT_LIGHT_DIRECTED_DEEP / 2)
+    assert cached_render_dir(cache, spec, case) != f.parent.parent
 
 
 def _rows(path: Path) -> list[dict]:

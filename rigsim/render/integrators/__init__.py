@@ -25,11 +25,11 @@ from rigsim.render.integrators.common import (
 )
 from rigsim.render.integrators.daylight import PLUGIN_NAME as DAYLIGHT_PLUGIN_NAME
 from rigsim.render.integrators.daylight import DaylightIntegrator
-from rigsim.render.integrators.strobe import PLUGIN_NAME, RigsimVolIntegrator
+from rigsim.render.integrators.strobe import PLUGIN_NAME, RigsimVolIntegrator, sampling_defaults
 from rigsim.render.variant import mitsuba
 
 __all__ = ["RigsimVolIntegrator", "DaylightIntegrator", "PLUGIN_NAME", "DAYLIGHT_PLUGIN_NAME", "INTEGRATORS",
-           "integrator_dict", "with_integrator", "equiangular_sample", "equiangular_pdf", "sample_target_point",
+           "integrator_dict", "integrator_key", "with_integrator", "equiangular_sample", "equiangular_pdf", "sample_target_point",
            "target_table", "T_CAP_OPTICAL_DEPTH"]
 
 mi, dr = mitsuba()
@@ -60,6 +60,16 @@ def integrator_dict(name: str = "rigsim", *, max_depth: int = -1, rr_depth: int 
                               allowed="rigsim")
         d["backscatter_aov"] = True
     return d
+
+
+def integrator_key(name: str = "rigsim") -> dict:
+    """What a render of integrator ``name`` with :func:`integrator_dict`'s defaults depends on besides the scene,
+    size, paths and seed: its plugin and default sampling options (rigsim: :func:`strobe.sampling_defaults`)."""
+    if name not in INTEGRATORS:
+        raise ConfigError(f"unknown integrator {name!r}", field="integrator", allowed=", ".join(INTEGRATORS))
+    if name == "rigsim":
+        return {"plugin": PLUGIN_NAME, **sampling_defaults()}
+    return {"plugin": INTEGRATORS[name], "rr_depth": 5}
 
 
 def with_integrator(ms, integrator):

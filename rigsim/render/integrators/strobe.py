@@ -193,7 +193,7 @@ from rigsim.render.integrators.common import (
 )
 from rigsim.render.variant import mitsuba
 
-__all__ = ["RigsimVolIntegrator", "PLUGIN_NAME"]
+__all__ = ["RigsimVolIntegrator", "PLUGIN_NAME", "SAMPLING_REVISION", "sampling_defaults"]
 
 mi, dr = mitsuba()
 
@@ -229,6 +229,22 @@ DEFAULT_EQUIANGULAR_VERTEX = 0.2
 #: The same share on camera rays (they seldom pass close to a light; the distance technique
 #: alone keeps every camera sample that reaches a target).
 DEFAULT_EQUIANGULAR_VERTEX_CAMERA = 0.0
+#: Raised by hand whenever a change to this module alters which samples a render with the default options
+#: draws (not what they estimate): kept renders are keyed by it and :func:`sampling_defaults`
+#: (:func:`rigsim.study.case.cached_render_dir`), so a study's reference does not mix renders of two samplers.
+#: 2: the light-directed share 0.2 from depth 4 and the roulette from the water's albedo (2026-12-05).
+SAMPLING_REVISION = 2
+
+
+def sampling_defaults() -> dict:
+    """The options a render of ``rigsim_vol`` draws its samples with when not given (the module constants and
+    :data:`SAMPLING_REVISION`): two renders of one scene and seed are the same image only if these are."""
+    return {"revision": SAMPLING_REVISION, "rr_depth": 5, "rr_depth_max": DEFAULT_RR_DEPTH_MAX,
+            "rr_threshold": DEFAULT_RR_THRESHOLD, "mis": "power", "phase_weighted": DEFAULT_PHASE_WEIGHTED,
+            "light_directed": DEFAULT_LIGHT_DIRECTED, "light_directed_deep": DEFAULT_LIGHT_DIRECTED_DEEP,
+            "light_directed_depth": DEFAULT_LIGHT_DIRECTED_DEPTH, "aureole": DEFAULT_AUREOLE,
+            "equiangular_vertex": DEFAULT_EQUIANGULAR_VERTEX,
+            "equiangular_vertex_camera": DEFAULT_EQUIANGULAR_VERTEX_CAMERA}
 
 
 class RigsimVolIntegrator(mi.SamplingIntegrator):
