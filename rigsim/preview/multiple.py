@@ -188,6 +188,7 @@ from rigsim.light.beam import beam_solid_angle_sr, local_to_world, sample_beam_d
 from rigsim.preview.geometry import SceneSurfaces, cast_rays, occluded
 from rigsim.scene.optics import camera_rays, cell_solid_angles, outside_index, port_reach_m, project_points
 from rigsim.scene.phase_tables import PhaseTables
+from rigsim.scene.surfaces import disk_cell_fraction
 from rigsim.scene.types import Scene
 from rigsim.spectrum import band_average, band_edges
 from rigsim.water.particles import lambert_sphere_phase
@@ -498,18 +499,11 @@ def _texture_cell(surf: SceneSurfaces, k: np.ndarray, p: np.ndarray, side_normal
     return iu, iv
 
 
-def _disk_cell_fraction(n_sub: int = 64) -> np.ndarray:
-    """(TEXTURE, TEXTURE) fraction of each cell of a disk's bounding square on the disk (``n_sub``² points
-    per cell).  Until 2026-12-03 the cells whose centres are on the
-    disk shared its area equally: a whole cell inside held π/52 of r² for its 1/16, and the class-B
-    irradiance of the disk's interior read 3–4 % high, its rim low
-    (``test_a_disks_texture_cells_hold_the_irradiance_of_their_part_of_the_disk``: +4.0 ± 0.4 %)."""
-    g = (np.arange(TEXTURE * n_sub) + 0.5) / (TEXTURE * n_sub) * 2 - 1
-    on = (g[:, None] ** 2 + g[None, :] ** 2 <= 1.0).reshape(TEXTURE, n_sub, TEXTURE, n_sub)
-    return on.mean(axis=(1, 3))
-
-
-_DISK_CELL_FRACTION = _disk_cell_fraction()
+#: (TEXTURE, TEXTURE) fraction of each cell of a disk's bounding square on the disk.  Until 2026-12-03 the cells
+#: whose centres are on the disk shared its area equally: a whole cell inside held π/52 of r² for its 1/16,
+#: and the class-B irradiance of the disk's interior read 3–4 % high, its rim low
+#: (``test_a_disks_texture_cells_hold_the_irradiance_of_their_part_of_the_disk``: +4.0 ± 0.4 %).
+_DISK_CELL_FRACTION = disk_cell_fraction(TEXTURE)
 
 
 def _cell_areas(surf: SceneSurfaces) -> np.ndarray:

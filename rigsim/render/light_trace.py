@@ -59,7 +59,7 @@ import numpy as np
 
 from rigsim.errors import ConfigError
 from rigsim.render.variant import mitsuba
-from rigsim.scene.surfaces import target_surfaces
+from rigsim.scene.surfaces import disk_cell_fraction, target_surfaces
 from rigsim.scene.types import Scene
 
 __all__ = ["ROULETTE_DEPTH", "TargetIrradiance", "trace_target_irradiance"]
@@ -118,10 +118,7 @@ class TargetIrradiance:
 def _cell_areas(pieces, cells: int) -> np.ndarray:
     """(S, cells, cells) area (m²) of each piece in each cell of its square; inf where it has none."""
     out = np.empty((len(pieces), cells, cells))
-    n_sub = 32
-    g = ((np.arange(cells * n_sub) + 0.5) / (cells * n_sub)) * 2 - 1
-    inside = (g[:, None] ** 2 + g[None, :] ** 2) <= 1.0
-    frac = inside.reshape(cells, n_sub, cells, n_sub).mean(axis=(1, 3))
+    frac = disk_cell_fraction(cells)
     for k, p in enumerate(pieces):
         w, h = p.size_m
         sq = w * h / (cells * cells)

@@ -47,7 +47,7 @@ from rigsim.scene.reflectances import (
 from rigsim.scene.types import Camera, Target
 
 __all__ = ["TARGET_KINDS", "COLORCHECKER_WIDTH_M", "COLORCHECKER_HEIGHT_M", "COLORCHECKER_PATCH_M",
-           "COLORCHECKER_PITCH_M", "DEFAULT_SIZE_M", "DEFAULT_TILT_DEG", "Surface", "target_surfaces"]
+           "COLORCHECKER_PITCH_M", "DEFAULT_SIZE_M", "DEFAULT_TILT_DEG", "Surface", "disk_cell_fraction", "target_surfaces"]
 
 #: Built-in target kinds (besides ``mesh``).
 TARGET_KINDS = ("colorchecker", "black-disk", "white-disk", "slanted-edge", "bottom", "seabed")
@@ -161,6 +161,14 @@ def _rotate_pair(a: np.ndarray, b: np.ndarray, angle_deg: float) -> tuple[np.nda
     """Rotate two orthonormal vectors by ``angle_deg`` within their plane."""
     t = np.radians(angle_deg)
     return np.cos(t) * a + np.sin(t) * b, -np.sin(t) * a + np.cos(t) * b
+
+
+def disk_cell_fraction(cells: int, n_sub: int = 64) -> np.ndarray:
+    """(cells, cells) fraction of each cell of a ``cells × cells`` grid over a disk's bounding square that lies
+    on the disk (``n_sub``² points per cell): the texture cells of a disk target in the light tracers."""
+    g = (np.arange(cells * n_sub) + 0.5) / (cells * n_sub) * 2 - 1
+    on = (g[:, None] ** 2 + g[None, :] ** 2 <= 1.0).reshape(cells, n_sub, cells, n_sub)
+    return on.mean(axis=(1, 3))
 
 
 def target_surfaces(target: Target, camera: Camera) -> tuple[Surface, ...]:
