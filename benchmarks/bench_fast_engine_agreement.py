@@ -23,9 +23,10 @@ holds the reference's noise and the fast engine's own, from its photon batches).
                                                                   # against the Monte Carlo renders a run into out/a kept
 
 Each Monte Carlo render is kept as it finishes (``<out>/<lighting>/mc-renders``, keyed by the scene's contents, seed,
-bands and render settings — not by where the checkout is, nor by the fast engine): a run asked for more renders
-(``--max-seeds``) renders only the new ones, and ``--renders-from`` checks a changed fast engine against the same
-references without rendering them again.
+bands and render settings, the renderer's default sampling options among them — not by where the checkout is, nor by
+the fast engine): a run asked for more renders (``--max-seeds``) renders only the new ones, and ``--renders-from``
+checks a changed fast engine against the same references without rendering them again (renders a sampler since changed
+drew are not reused: :func:`rigsim.render.integrators.integrator_key`).
 
 ``--reference hybrid``: the chart cases lit by strobes are referenced by hybrid images instead
 (:mod:`rigsim.render.hybrid`: the renders' veil plus the chart's light traced from the strobes and seen
