@@ -89,6 +89,7 @@ reference = "{reference}"
 hybrid_photons = {hybrid_photons}
 hybrid_spp = {hybrid_spp}
 hybrid_veil_renders = {hybrid_veil}
+hybrid_veil_sigma_px = {hybrid_sigma}
 """
 
 
@@ -145,6 +146,9 @@ def main(argv=None) -> int:
                     help="renders whose veil each hybrid image averages (the veil over a 30-pixel patch is the hybrid's "
                          "noisiest part: Jerlov 7C, edge-lit rig at 1 m, 32 renders of 32 spp left it 1-6 %% of a patch's "
                          "light, the camera passes 0.2-0.8 %%)")
+    ap.add_argument("--hybrid-veil-sigma-px", type=float, default=4.0,
+                    help="kernel (px) of the local quadratic that pools each hybrid image's veil over the chart "
+                         "(rigsim.render.hybrid.smooth_chart_veil; 0: each pixel's own)")
     ap.add_argument("--publish", action="store_true",
                     help=f"write the per-water summary to {PUBLISHED.relative_to(ROOT)} (the rig designer shows it)")
     args = ap.parse_args(argv)
@@ -173,7 +177,8 @@ def main(argv=None) -> int:
                                   else args.daylight_target_se,
                                   ms=args.multiple_scattering, reference=args.reference,
                                   hybrid_photons=args.hybrid_photons, hybrid_spp=args.hybrid_spp,
-                                  hybrid_veil=args.hybrid_veil_renders).replace("'", '"'))
+                                  hybrid_veil=args.hybrid_veil_renders,
+                                  hybrid_sigma=args.hybrid_veil_sigma_px).replace("'", '"'))
         spec = load_study(f)
         if args.renders_from is not None:
             src, dst = args.renders_from.resolve() / name / MC_RENDERS, args.out / name / MC_RENDERS
@@ -198,7 +203,8 @@ def main(argv=None) -> int:
         depths = ", ".join(f"{float(d):g}" for d in _list(args.depths))
         ms = "" if args.multiple_scattering == "off" else f", multiple scattering {args.multiple_scattering}"
         hyb = (f", strobe-lit charts referenced by the hybrid estimate ({args.hybrid_photons} photons, "
-               f"{args.hybrid_spp} spp per band, {args.hybrid_veil_renders} renders' veil per image)"
+               f"{args.hybrid_spp} spp per band, {args.hybrid_veil_renders} renders' veil per image, pooled over the "
+               f"chart by a {args.hybrid_veil_sigma_px:g}-px local quadratic)"
                if args.reference == "hybrid" else "")
         settings = f"{w}x{h} px{ms}, Monte Carlo {args.seeds}-{max(args.seeds, args.max_seeds)} x {args.spp} spp{hyb}, " + "; ".join(
             x for x in (f"rigs {', '.join(rigs)}" if rigs else "",

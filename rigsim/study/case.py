@@ -239,7 +239,8 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
 
     def reference(i):
         """Reference image ``i``: render ``i``; or (hybrid) the mean of renders ``i·k … i·k + k − 1`` (k
-        ``hybrid_veil_renders``) with its chart light replaced by hybrid estimate ``i``."""
+        ``hybrid_veil_renders``) with its chart light replaced by hybrid estimate ``i`` and its veil over the
+        chart pooled (``hybrid_veil_sigma_px``)."""
         if not hybrid:
             return mc(i)
         from rigsim.metrics.agreement import mean_image
@@ -255,7 +256,7 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
                                        seed=(seed + 7919 * i) % 2**31)
             if f is not None:
                 _write_array(f, refl)
-        return hybrid_image(img, refl)
+        return hybrid_image(img, refl, veil_sigma_px=ck.hybrid_veil_sigma_px)
 
     refs = [reference(i) for i in range(ck.seeds)]
     regions, metrics = compare_renders(fast, refs, target_kind, fast_batches=fast_batches)
@@ -277,7 +278,8 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
               "spp": ck.spp, "seeds": len(refs), "pilot": pilot, "integrator": ck.integrator,
               "reference": "hybrid" if hybrid else "monte-carlo",
               "hybrid": {"photons": ck.hybrid_photons, "spp": ck.hybrid_spp,
-                         "veil_renders": ck.hybrid_veil_renders} if hybrid else None,
+                         "veil_renders": ck.hybrid_veil_renders, "veil_sigma_px": ck.hybrid_veil_sigma_px}
+              if hybrid else None,
               "fast_wall_time_s": t_fast, "monte_carlo_wall_time_s": t_mc,
               "regions": [r.record() for r in regions], "metrics": [m.record() for m in metrics]}
     from rigsim.spectral_image import srgb_preview

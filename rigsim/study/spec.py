@@ -43,6 +43,8 @@
     hybrid_photons = 1000000  # per reference image (hybrid)
     hybrid_spp = 64         # camera-pass paths per pixel and band, per reference image (hybrid)
     hybrid_veil_renders = 4 # renders whose veil (backscatter layer) each hybrid image averages
+    hybrid_veil_sigma_px = 4.0  # the veil over the chart pooled by a local quadratic, Gaussian kernel of this
+                            # many pixels (rigsim.render.hybrid.smooth_chart_veil); 0: each pixel's own
 
     [sweep]
     extend_visibility = true  # default: where a target stays visible over the whole sweep, the study
@@ -142,6 +144,11 @@ class CheckSettings:
     #: water the veil of one render is noisy: Jerlov 7C, edge-lit rig at 1 m, 16 renders of 32 spp left the
     #: open water's blue ±7.5 %).
     hybrid_veil_renders: int = 4
+    #: Kernel (pixels) of the local quadratic that pools the hybrid images' veil over the chart
+    #: (:func:`rigsim.render.hybrid.smooth_chart_veil`: the veil does not depend on the patches, and pooled over
+    #: neighbouring ones its noise fell 1.6–1.9× in Jerlov 7C; its bias on the fast engine's veil ≤ 0.6 % of a
+    #: patch); 0 keeps each pixel's own.
+    hybrid_veil_sigma_px: float = 4.0
 
     def renders_for(self, pilot_se_p90: float) -> int:
         """Renders in all for a pilot whose regions' relative SE has the 90th percentile ``pilot_se_p90``."""
@@ -233,7 +240,7 @@ class StudySpec:
         """Stable id of a case's Monte Carlo check (the case's id + a hash of the check settings)."""
         ck = asdict(self.check)
         if ck["reference"] == "monte-carlo":  # the ids of checks made before the hybrid reference existed stay
-            for k in ("reference", "hybrid_photons", "hybrid_spp", "hybrid_veil_renders"):
+            for k in ("reference", "hybrid_photons", "hybrid_spp", "hybrid_veil_renders", "hybrid_veil_sigma_px"):
                 ck.pop(k)
         h = hashlib.sha1(json.dumps(ck, sort_keys=True).encode()).hexdigest()[:6]
         return f"{self.case_id(case)}__check-{h}"
@@ -415,6 +422,7 @@ class CheckTable(FileModel):
     hybrid_photons: Annotated[Int, Field(ge=10_000, le=1_000_000_000)] = 1_000_000
     hybrid_spp: Annotated[Int, Field(ge=1, le=65_536)] = 64
     hybrid_veil_renders: Annotated[Int, Field(ge=1, le=256)] = 4
+    hybrid_veil_sigma_px: Annotated[Real, Field(ge=0.0, le=64.0)] = 4.0
 
     @model_validator(mode="after")
     def _two_stages(self) -> "CheckTable":
@@ -428,7 +436,8 @@ class CheckTable(FileModel):
         return CheckSettings(width=self.width, height=self.height, spp=self.spp, seeds=self.seeds,
                              integrator=self.integrator, max_seeds=self.max_seeds, target_se=self.target_se,
                              reference=self.reference, hybrid_photons=self.hybrid_photons,
-                             hybrid_spp=self.hybrid_spp, hybrid_veil_renders=self.hybrid_veil_renders)
+                             hybrid_spp=self.hybrid_spp, hybrid_veil_renders=self.hybrid_veil_renders,
+                             hybrid_veil_sigma_px=self.hybrid_veil_sigma_px)
 
 
 class CaptureTable(FileModel):
