@@ -20,7 +20,9 @@ is easy.  The reference here splits every path at its last surface interaction:
    tail (largest of 32 renders 1.1–1.3× the median in Jerlov 7C and 9C); over the chart's patches, in front
    of which the edge-lit rig's beams cross, it can have one (9C at 1 m: one render 15× the median over the
    moderate red patch's blue, the veil's SE there 19 % of the patch's light): the hybrid does not remove
-   that part of the renders' tail.
+   that part of the renders' tail.  It pools it: the veil does not depend on the patches, so over the chart it is
+   replaced by a local quadratic of the pixels around (:func:`smooth_chart_veil`, ``hybrid_image(...,
+   veil_sigma_px=4)``: a patch's noise 1.6–1.9× lower in Jerlov 7C, a bright path spread over its neighbours).
 
 Each hybrid image is an independent estimate (its own photons, camera paths and render), so the agreement
 check (:func:`rigsim.metrics.agreement.compare_renders`) takes their mean and spread as it takes renders'.
