@@ -162,6 +162,7 @@ def main(argv=None) -> int:
     runs += [(f"daylight-{d:g}m", [str(ROOT / "rigs" / "ambient-only.toml")], f"depth_m = {float(d)}")
              for d in (float(x) for x in _list(args.depths))]
 
+    from rigsim.errors import ConfigError
     from rigsim.study import load_study, run_study
     from rigsim.study.runner import MC_RENDERS, agreement_rows, read_checks
 
@@ -179,7 +180,10 @@ def main(argv=None) -> int:
                                   hybrid_photons=args.hybrid_photons, hybrid_spp=args.hybrid_spp,
                                   hybrid_veil=args.hybrid_veil_renders,
                                   hybrid_sigma=args.hybrid_veil_sigma_px).replace("'", '"'))
-        spec = load_study(f)
+        try:
+            spec = load_study(f)
+        except ConfigError as e:  # a flag out of range: the study file's field names it (e.g. check.hybrid_photons)
+            ap.error(f"a setting is out of range: {e}")
         if args.renders_from is not None:
             src, dst = args.renders_from.resolve() / name / MC_RENDERS, args.out / name / MC_RENDERS
             if not src.is_dir():
