@@ -134,14 +134,15 @@ def smooth_chart_veil(veil: np.ndarray, chart: np.ndarray, sigma_px: float, degr
     Why: the veil is the light of paths that never meet a surface, so in front of the chart it does not depend on
     the patches (the same water up to the same plane; the renders' ``backscatter`` layer of a white and a black
     disk with the same seeds is identical), and it varies over decimetres of water, not over a patch.  Pooled
-    over neighbouring patches and the gaps between them its noise falls 2.5–3× (Jerlov 7C, edge-lit rig, 32
-    renders: a patch's relative SE 3.6–4.2 % → 1.1–1.5 %, median) and a rare bright path spreads over the
-    kernel instead of landing on one patch.  A local polynomial follows the veil's gradient and curvature across
+    over neighbouring patches and the gaps between them its noise falls 1.6–1.9× (Jerlov 7C, edge-lit rig, 32
+    renders, 4 px: a patch's relative SE 3.6 → 1.9 % at 1 m, 4.2 → 2.7 % at 3 m, median; for independent pixels
+    the variance of a patch mean falls to 0.17×) and a rare bright path spreads over the kernel instead of landing
+    on one patch (one pixel weighs at most 0.32 of its weight in a plain patch mean; unbiased either way).  A local polynomial follows the veil's gradient and curvature across
     the chart (it rises steeply towards an edge-lit chart's sides); what it smooths away is measured on the fast
     engine's noise-free veil in ``tests/render/test_hybrid.py``."""
-    chart = np.asarray(chart, bool)
     from scipy import ndimage
 
+    chart = np.asarray(chart, bool)
     inner = ndimage.binary_erosion(chart, iterations=1)
     v = np.asarray(veil, float)
     if not inner.any() or sigma_px <= 0:
