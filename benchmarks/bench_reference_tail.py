@@ -54,6 +54,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from rigsim.config.rig import load_rig  # noqa: E402
+from rigsim.errors import ConfigError  # noqa: E402
 from rigsim.preview import render_preview  # noqa: E402
 from rigsim.render.integrators import integrator_dict, with_integrator  # noqa: E402
 from rigsim.render.mitsuba_scene import build_mitsuba_scene  # noqa: E402
@@ -136,7 +137,7 @@ def main(argv=None) -> int:
             ap.error(f"--cases: {c!r} is not water:distance_m")
         try:
             preset(w)
-        except Exception as e:  # a one-line usage error, not a traceback
+        except ConfigError as e:  # an unknown water: a one-line usage error, not a traceback
             ap.error(f"--cases: {e}")
         if not float(d) > 0:
             ap.error(f"--cases: distance {d} m must be > 0")

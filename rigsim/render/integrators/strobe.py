@@ -234,17 +234,9 @@ DEFAULT_EQUIANGULAR_VERTEX_CAMERA = 0.0
 #: (:func:`rigsim.study.case.cached_render_dir`), so a study's reference does not mix renders of two samplers.
 #: 2: the light-directed share 0.2 from depth 4 and the roulette from the water's albedo (2026-12-05).
 SAMPLING_REVISION = 2
-
-
-def sampling_defaults() -> dict:
-    """The options a render of ``rigsim_vol`` draws its samples with when not given (the module constants and
-    :data:`SAMPLING_REVISION`): two renders of one scene and seed are the same image only if these are."""
-    return {"revision": SAMPLING_REVISION, "rr_depth": 5, "rr_depth_max": DEFAULT_RR_DEPTH_MAX,
-            "rr_threshold": DEFAULT_RR_THRESHOLD, "mis": "power", "phase_weighted": DEFAULT_PHASE_WEIGHTED,
-            "light_directed": DEFAULT_LIGHT_DIRECTED, "light_directed_deep": DEFAULT_LIGHT_DIRECTED_DEEP,
-            "light_directed_depth": DEFAULT_LIGHT_DIRECTED_DEPTH, "aureole": DEFAULT_AUREOLE,
-            "equiangular_vertex": DEFAULT_EQUIANGULAR_VERTEX,
-            "equiangular_vertex_camera": DEFAULT_EQUIANGULAR_VERTEX_CAMERA}
+#: The integrator's attributes that say how it draws samples (its Mitsuba properties, as read by ``__init__``).
+_SAMPLING_ATTRS = ("rr_depth", "rr_depth_max", "rr_threshold", "mis", "equiangular", "alpha", "cone", "cone_deep",
+                   "cone_depth", "halo", "surface_halo", "target_nee", "aureole", "cont_eq", "cont_eq0")
 
 
 class RigsimVolIntegrator(mi.SamplingIntegrator):
@@ -323,6 +315,10 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
         self.daylight = None if tables is None else DaylightIntegrator(max_depth=self.max_depth).set_ambient(
             tables, world_radius_m)
         return self
+
+    def sampling(self) -> dict:
+        """How this integrator draws samples: its options (:data:`_SAMPLING_ATTRS`) and :data:`SAMPLING_REVISION`."""
+        return {"revision": SAMPLING_REVISION, **{k: getattr(self, k) for k in _SAMPLING_ATTRS}}
 
     @property
     def ambient(self):
@@ -778,3 +774,9 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
     def to_string(self):
         return (f"RigsimVolIntegrator[max_depth={self.max_depth}, rr_depth={self.rr_depth}, mis={self.mis}, "
                 f"equiangular={self.equiangular}]")
+
+
+def sampling_defaults() -> dict:
+    """How a render of ``rigsim_vol`` with no options draws its samples (:meth:`RigsimVolIntegrator.sampling` of a
+    default one): two renders of one scene and seed are the same image only if these are."""
+    return RigsimVolIntegrator().sampling()
