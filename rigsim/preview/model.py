@@ -123,7 +123,8 @@ from rigsim.scene.types import Scene, unit
 from rigsim.spectral_image import RenderInfo, SpectralImage
 from rigsim.spectrum import DEFAULT_WAVELENGTHS_NM, band_average, band_edges
 from rigsim.scene.imaging import IMAGE_LAYERS, check_int, check_scene_for_bands, image_request
-from rigsim.scene.optics import angular_pitch_rad, camera_rays, fov_water_deg, outside_index, port_reach_m, world_radius_m
+from rigsim.scene.optics import (angular_pitch_rad, camera_rays, fov_water_deg, outside_index, port_reach_m,
+                                 port_viewpoint_m, world_radius_m)
 
 __all__ = ["render_preview", "render_photon_batches", "PREVIEW_LAYERS", "band_edges"]
 
@@ -192,6 +193,12 @@ MS_CUTOFF_DEG = 30.0
 #: 3 m −5.8 ± 0.4 → −3.7 ± 0.4 % (blue), the clear waters unchanged, the strobe cells beyond tolerance 4 → 2 of
 #: 2 719 (both chart patches on heavy-tailed references).
 SPREAD_PHASE = True
+#: The camera leg's small-angle blur with the housing's part of each line of sight left out (no water inside the
+#: port; the kernel's optical path the water's, its angles scaled by the water's share of the distance to the
+#: rays' viewpoint: :meth:`rigsim.preview.forward.SmallAngle.blur_plan`'s ``port_m``, ``viewpoint_m``); False:
+#: the water taken to start at the pupil (before 2026-12-05; the frozen reference of
+#: tests/preview/test_preview_speed.py).
+BLUR_PORT = True
 #: Wide-angle scattering ``b (1 − F(30°))`` at 550 nm (1/m) from which ``multiple="auto"`` adds the
 #: multiply scattered light.  Set from the agreement benchmark without it
 #: (``data/fast_engine/agreement.csv`` of 2026-12-01): the waters below it (pure-sea, oceanic, the
@@ -902,7 +909,9 @@ class _Group:
         for index, _ in sources:
             nonzero[index] = True
         nonzero = nonzero.reshape(v.height, W)
-        plan = small_angle.blur_plan(v.range_m.astype(float), pitch, nonzero)
+        port = dict(port_m=port_reach_m(v.camera), viewpoint_m=port_viewpoint_m(v.camera, n_outside=v.n_out)) \
+            if BLUR_PORT else {}
+        plan = small_angle.blur_plan(v.range_m.astype(float), pitch, nonzero, **port)
         if plan is None:  # nothing to blur: the source itself (and the veil from behind cancels)
             index, values = sources[0]
             self.full.reshape(-1, B)[index] += values

@@ -65,6 +65,7 @@ from rigsim.water.refraction import WATER_INDEX, fresnel_reflectance_unpolarised
 
 __all__ = [
     "WATER_INDEX",
+    "port_viewpoint_m",
     "outside_index",
     "tan_half_fov",
     "field_width_m",
@@ -383,6 +384,27 @@ def port_reach_m(camera: Camera) -> float:
     if port.kind == "dome":
         return port.radius_m + port.thickness_m
     return port.standoff_m + port.thickness_m
+
+
+def port_viewpoint_m(camera: Camera, *, n_outside: float) -> float:
+    """Distance (m) behind the port's outer surface, along the axis, of the point the rays near the image centre
+    appear to come from outside the port: :func:`port_reach_m` for a dome (the pupil, its centre); for a flat
+    port the paraxial virtual pupil, found from :func:`camera_rays` (a ray 1/1000 of the frame off the centre,
+    extended back to the axis).  The small-angle blur of the camera leg sees a scattering ``u`` before the
+    target ``ψ u / (s + this)`` off it (``s`` the water crossed: :meth:`rigsim.preview.forward.SmallAngle.blur_plan`).
+    """
+    if camera.port.kind == "dome":
+        return port_reach_m(camera)
+    o, d = camera_rays(camera, np.array([0.5, 0.501]), np.array([0.5, 0.5]), n_outside=float(n_outside))
+    fwd = np.asarray(camera.frame()[2], float)
+    pupil = np.asarray(camera.position_m, float)
+    lat = (o[1] - pupil) - ((o[1] - pupil) @ fwd) * fwd  # the ray's start off the axis
+    dl = d[1] - (d[1] @ fwd) * fwd  # its direction's part across the axis
+    n_l = float(np.linalg.norm(dl))
+    if n_l < 1e-12:
+        return port_reach_m(camera)
+    back = float(np.linalg.norm(lat)) / n_l * float(d[1] @ fwd)  # along the axis to where it crosses it
+    return max(back, 0.0)
 
 
 def world_radius_m(scene: Scene) -> float:

@@ -211,6 +211,40 @@ def test_small_angle_kernel_is_normalised_and_conserves_energy():
     assert np.all(narrow[32, 32] < 1.0) and np.all(narrow[10, 10] > 0)
 
 
+@pytest.mark.parametrize("port", [0.0, 0.12])
+def test_the_camera_legs_blur_has_the_spread_of_its_scatterings_in_the_water(port):
+    """The blur of a point 1 m away spreads it by the scatterings in the water between the port and the point:
+    N of them (Poisson, mean ``b F s``, ``s`` the water crossed, given at least one) each seen ``ψ u / D`` off the
+    point (ψ from the phase function's cells below ψ_c, ``u`` uniform over the water, ``D`` the distance from the
+    rays' viewpoint): the image's mean squared offset is ``E[N | N ≥ 1] ⟨ψ²⟩ a² / 3``, ``a = s / D``.  Behind an
+    0.12 m dome (the water starts 0.12 m from the pupil) that is 0.67 of the spread with the water taken to
+    start at the pupil, which this tells apart (``port = 0``: the same formula with s = D = 1 m)."""
+    water = preset("coastal")
+    comps = phase_tables(water.phase, water.wavelength_range_nm)
+    wl = np.array([550.0])
+    cut = np.radians(30.0)
+    sa = SmallAngle(comps, cut, water.b_per_m(wl), comps.weights_at(wl))
+    n, pitch = 255, np.radians(0.5)
+    src = np.zeros((1, n, n), np.float32)
+    src[0, n // 2, n // 2] = 1.0
+    rng = np.full((n, n), np.inf)
+    rng[n // 2, n // 2] = 1.0
+    plan = sa.blur_plan(rng, (pitch, pitch), src[0] > 0, port_m=port)
+    out = plan.blur(0, src[0]).astype(float)
+    y, x = (np.mgrid[:n, :n] - n // 2) * pitch
+    m2 = np.sum(out * (x * x + y * y)) / np.sum(out)
+    cells = comps.forward_cells(cut)
+    e = comps.grid.psi_edges
+    lo, hi = e[:-1][cells], e[1:][cells]
+    psi = np.where(lo > 0, np.sqrt(np.maximum(lo, 1e-300) * hi), hi / 2)  # as saa_transform's nodes
+    m = sa.w[0] @ comps.masses[:, cells]
+    s_w, D = 1.0 - port, 1.0
+    mu = sa.b[0] * sa.F[0] * s_w
+    expected = mu / -np.expm1(-mu) * (m @ psi ** 2) / m.sum() * (s_w / D) ** 2 / 3
+    assert np.sum(out) == pytest.approx(1.0, rel=0.01)
+    assert m2 == pytest.approx(expected, rel=0.03)
+
+
 def test_phase_tables_reproduce_the_water_phase_function():
     water = preset("coastal")
     comps = phase_tables(water.phase, water.wavelength_range_nm)
