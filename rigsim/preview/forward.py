@@ -32,8 +32,9 @@ function instead of fitted.
 It is used twice:
 
 * **camera leg** — the image of the target (direct component times ``exp(bFr)−1``)
-  is convolved with ``K`` by FFT, in pixels through the angular pitch at the image
-  centre, the kernel of each range bin at the bin's range (:class:`BlurPlan`:
+  is convolved with ``K`` by FFT, on the azimuthal equidistant grid about the image
+  centre (the angular pitch at the centre; resampled from and to the pixels), the
+  kernel of each range bin at the bin's water path (:class:`BlurPlan`:
   one band at a time — the bands in parallel threads — on a grid padded to at least twice
   the image, the zero rows of the padding skipped in the row transforms, the kernel, which
   depends on |ν| only, computed on half of the frequency rows);
@@ -45,8 +46,8 @@ It is used twice:
 Limits: angles add as plane vectors (exact for small angles; for ψ of tens of
 degrees only the energy and the rough extent of the halo are right); the path
 lengthening of scattered light and the cosine of its incidence are ignored; the
-kernel in the image is shift-invariant (the pixel pitch at the centre, ranges in
-bins); light scattered by more than ψ_c is not in these terms (it is in the
+kernel is shift-invariant in angle (convolved on the azimuthal equidistant grid
+about the image centre, ranges in bins); light scattered by more than ψ_c is not in these terms (it is in the
 single-scattering backscatter integral when it reaches the camera from the
 water, and missing when it lights the target).  The camera leg starts at the port
 (:meth:`SmallAngle.blur_plan`'s ``port_m``): no water, no blur inside the housing.
@@ -55,13 +56,17 @@ Measured against Mitsuba's camera leg alone (2026-12-05: a ColorChecker 40 % of 
 field, 3 m behind an 8-inch dome, emitting the fast engine's own irradiance —
 ``rigsim.render.hybrid.emissive_camera_pass`` — in water with the Petzold phase
 function cut off at 30°, so that all its scattering is this model's; a = 0.05 /m):
-the halo's far part is too weak here.  With b = 0.3 /m (mostly single scattering)
-the water 0.5–2 / 4–8 / 8–16 / 16–64 pixels (0.8° each) beside the chart gets
-−8 / −17 / −31 / −63 % of Monte Carlo's light and the chart +1.6 %; with b = 2.35
-/m −2 / −11 / −23 / −51 % and the chart +3.5 %.  Not yet explained; candidates: the
-pinhole's pixels are narrower off the axis than the centre's pitch the kernel is
-laid out with, and a scattering near the port by ψ moves the point seen by tan ψ,
-not ψ.
+laid out on the pixels with the centre's pitch the halo's far part was too weak
+(the pinhole's pixels off the axis are cos² θ narrower along the radius): with
+b = 0.3 /m the water 0.5–2 / 4–8 / 8–16 / 16–64 pixels (0.8° each) beside the
+chart got −8 / −17 / −31 / −63 % of Monte Carlo's light and the chart +1.6 %;
+with b = 2.35 /m −2 / −11 / −23 / −51 % and the chart +3.5 %.  On the azimuthal
+equidistant grid (:meth:`SmallAngle.blur_plan`'s ``warp``): +2 / −4 / −7 / −11 %,
+the chart +0.9 %; and −1 / −3 / −5 / −10 %, the chart +1.3 %.  With the full
+phase function (the wide-angle part by :mod:`rigsim.preview.multiple`), chart
+patches against that camera leg: Jerlov 7C at 1 m −2.2 … +3.1 %, mean +0.7 ±
+0.8 % (−5.4 … +4.7 % on the pixels with the water from the pupil); 7C at 3 m +3.5
+± 2.1 %; III at 1 / 3 m +0.8 / +1.2 ± 0.7 / 1.0 %.
 """
 
 from __future__ import annotations
@@ -355,7 +360,7 @@ class SmallAngle:
 
     def blur_plan(self, range_m: np.ndarray, pitch_rad: tuple[float, float], nonzero: np.ndarray, *,
                   max_bins: int = 6, bin_ratio: float = 1.3, port_m: float = 0.0,
-                  viewpoint_m: float | None = None) -> "BlurPlan | None":
+                  viewpoint_m: float | None = None, warp=None) -> "BlurPlan | None":
         """What the camera-leg blur of an image needs, band by band (see :class:`BlurPlan`).
 
         Pixels are put in at most ``max_bins`` bins of range (``bin_ratio`` apart in log r);
@@ -386,6 +391,12 @@ class SmallAngle:
             chart emitting the fast engine's own irradiance, ``rigsim.render.hybrid.emissive_camera_pass``)
             spread −5.4 … +4.7 % (the bright patches low, the dark ones high: too much light exchanged
             between neighbours) without this, −0.6 … +3.7 % (mean +1.8 %) with it.
+        warp
+            ``(to_x, to_y, from_x, from_y)`` of :func:`rigsim.scene.optics.equidistant_maps`: the blur is done on
+            the azimuthal equidistant grid about the image centre (where a distance is an angle at every
+            azimuth) and sampled back at the pixels; None: on the pixel grid with the centre's pitch (a
+            pinhole's pixels off the axis are narrower than that along the radius — ``cos² θ``, 0.55 at a
+            24 mm lens's corner — so the kernel laid out in pixels put the halo too near its source there).
 
         Returns
         -------
@@ -396,7 +407,7 @@ class SmallAngle:
         if not finite.any() or not np.any(self.F > 0):
             return None
         return BlurPlan(self, np.where(finite, range_m, np.nan), finite, pitch_rad, max_bins, bin_ratio,
-                        port_m=port_m, viewpoint_m=viewpoint_m)
+                        port_m=port_m, viewpoint_m=viewpoint_m, warp=warp)
 
     # -- the direction of forward-scattered light ---------------------------------------
     def spread_table(self, bw: np.ndarray) -> np.ndarray:
@@ -503,7 +514,7 @@ class BlurPlan:
     """
 
     def __init__(self, sa: SmallAngle, r: np.ndarray, finite: np.ndarray, pitch_rad, max_bins: int,
-                 bin_ratio: float, *, port_m: float = 0.0, viewpoint_m: float | None = None):
+                 bin_ratio: float, *, port_m: float = 0.0, viewpoint_m: float | None = None, warp=None):
         self.sa = sa
         H, W = finite.shape
         self.shape = (H, W)
@@ -529,7 +540,9 @@ class BlurPlan:
         # Q_k(a ν) − Q_k(0) per angle scale a, float32 (see q_minus_F): (K, h + 1, Wp/2 + 1) each
         self.dk32 = {a: (sa.q_components(a * nu) - sa._Qk[:, :1, None]).astype(np.float32)
                      for a in sorted({a for _, _, a in self.bins})}
-        rows = np.flatnonzero(finite.any(axis=1))
+        self.warp = None if warp is None else tuple(np.ascontiguousarray(m, np.float32) for m in warp)
+        seen = finite if self.warp is None else self._to_grid(finite.astype(np.float32)) > 0
+        rows = np.flatnonzero(seen.any(axis=1))
         self.r0, self.r1 = int(rows[0]), int(rows[-1]) + 1  # only these rows of the source are non-zero
         self._local = threading.local()
 
@@ -545,6 +558,23 @@ class BlurPlan:
                 "tmp": np.empty((self.h + 1, spec[1]), np.float32),
                 "x": np.empty((self.r1 - self.r0, self.shape[1]), np.float32)}
         return ws
+
+    def _to_grid(self, image: np.ndarray) -> np.ndarray:
+        """A (H, W) float32 image of pixels on the grid the blur is done on (the equidistant one, if warped)."""
+        if self.warp is None:
+            return image
+        import cv2
+
+        return cv2.remap(image, self.warp[2], self.warp[3], cv2.INTER_LINEAR, borderMode=cv2.BORDER_CONSTANT,
+                         borderValue=0.0)
+
+    def _to_pixels(self, grid: np.ndarray) -> np.ndarray:
+        if self.warp is None:
+            return grid
+        import cv2
+
+        return cv2.remap(np.ascontiguousarray(grid, np.float32), self.warp[0], self.warp[1], cv2.INTER_LINEAR,
+                         borderMode=cv2.BORDER_CONSTANT, borderValue=0.0)
 
     def kernel(self, b: int, water_m: float, a: float = 1.0) -> np.ndarray:
         """Band ``b``'s unit kernel after ``water_m`` of water, its angles scaled by ``a`` (a scale of this
@@ -574,7 +604,10 @@ class BlurPlan:
         spec_sum = None
         for i, (m, water_m, a) in enumerate(self.bins):
             mask = self.finite if m is None else m
-            x = np.multiply(image[r0:r1], mask[r0:r1], out=ws["x"])
+            if self.warp is None:
+                x = np.multiply(image[r0:r1], mask[r0:r1], out=ws["x"])
+            else:
+                x = self._to_grid(np.multiply(image, mask, dtype=np.float32))[r0:r1]
             spec = ws["spec"]
             spec[:r0] = 0
             spec[r1:] = 0
@@ -591,4 +624,4 @@ class BlurPlan:
             else:
                 spec_sum += spec
         cols = sfft.ifft(spec_sum, axis=0, overwrite_x=True)[:H]
-        return sfft.irfft(cols, n=Wp, axis=1)[:, :W]
+        return self._to_pixels(sfft.irfft(cols, n=Wp, axis=1)[:, :W])

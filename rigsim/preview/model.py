@@ -124,7 +124,7 @@ from rigsim.spectral_image import RenderInfo, SpectralImage
 from rigsim.spectrum import DEFAULT_WAVELENGTHS_NM, band_average, band_edges
 from rigsim.scene.imaging import IMAGE_LAYERS, check_int, check_scene_for_bands, image_request
 from rigsim.scene.optics import (angular_pitch_rad, camera_rays, fov_water_deg, outside_index, port_reach_m,
-                                 port_viewpoint_m, world_radius_m)
+                                 equidistant_maps, port_viewpoint_m, world_radius_m)
 
 __all__ = ["render_preview", "render_photon_batches", "PREVIEW_LAYERS", "band_edges"]
 
@@ -199,6 +199,10 @@ SPREAD_PHASE = True
 #: the water taken to start at the pupil (before 2026-12-05; the frozen reference of
 #: tests/preview/test_preview_speed.py).
 BLUR_PORT = True
+#: The camera leg's small-angle blur done on the azimuthal equidistant grid about the image centre, where its
+#: kernel is the same at every pixel (:func:`rigsim.scene.optics.equidistant_maps`); False: on the pixels with the
+#: centre's pitch (before 2026-12-05; the frozen reference of tests/preview/test_preview_speed.py).
+BLUR_EQUIDISTANT = True
 #: Wide-angle scattering ``b (1 − F(30°))`` at 550 nm (1/m) from which ``multiple="auto"`` adds the
 #: multiply scattered light.  Set from the agreement benchmark without it
 #: (``data/fast_engine/agreement.csv`` of 2026-12-01): the waters below it (pure-sea, oceanic, the
@@ -911,6 +915,8 @@ class _Group:
         nonzero = nonzero.reshape(v.height, W)
         port = dict(port_m=port_reach_m(v.camera), viewpoint_m=port_viewpoint_m(v.camera, n_outside=v.n_out)) \
             if BLUR_PORT else {}
+        if BLUR_EQUIDISTANT:
+            port["warp"] = equidistant_maps(v.camera, W, v.height, n_outside=v.n_out, pitch_rad=pitch)
         plan = small_angle.blur_plan(v.range_m.astype(float), pitch, nonzero, **port)
         if plan is None:  # nothing to blur: the source itself (and the veil from behind cancels)
             index, values = sources[0]

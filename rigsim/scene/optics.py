@@ -66,6 +66,7 @@ from rigsim.water.refraction import WATER_INDEX, fresnel_reflectance_unpolarised
 __all__ = [
     "WATER_INDEX",
     "port_viewpoint_m",
+    "equidistant_maps",
     "outside_index",
     "tan_half_fov",
     "field_width_m",
@@ -405,6 +406,57 @@ def port_viewpoint_m(camera: Camera, *, n_outside: float) -> float:
         return port_reach_m(camera)
     back = float(np.linalg.norm(lat)) / n_l * float(d[1] @ fwd)  # along the axis to where it crosses it
     return max(back, 0.0)
+
+
+def equidistant_maps(camera: Camera, width: int, height: int, *, n_outside: float,
+                     pitch_rad: tuple[float, float]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Maps between the image's pixels and an azimuthal equidistant grid of the same size about its centre.
+
+    The equidistant grid's cell ``(i, j)`` is the direction ``θ`` = |α| off the image centre's ray, at the
+    azimuth of α, with ``α = ((j − W/2 + ½) p_x, (i − H/2 + ½) p_y)`` (``p`` = ``pitch_rad``, the angle between
+    neighbouring pixels at the centre): its distances from the centre are angles, exactly, at every azimuth (the
+    pixels' are not: a pinhole's pixels are ``cos² θ`` narrower off the axis along the radius).  A blur that
+    is the same in every direction — the camera leg's small-angle kernel — is a convolution on this grid.
+
+    Returns
+    -------
+    (to_x, to_y, from_x, from_y)
+        float32 (H, W) arrays of (column, row) index coordinates, as :func:`cv2.remap` takes them: where each
+        pixel centre lies on the equidistant grid (``to``), and where each equidistant cell lies on the pixel
+        grid (``from``; −1 beyond the directions the film can see).
+    """
+    W, H = int(width), int(height)
+    tx, ty = tan_half_fov(camera)
+    f = np.asarray(camera.frame()[2], float)
+    # the water-side angle off the axis against the film's radius (in tangent units): radial in (x, y)
+    rho_max = float(np.hypot(tx, ty)) * 1.000001
+    rho = np.linspace(0.0, rho_max, 4097)
+    d_air = f[None, :] + np.asarray(camera.frame()[0], float)[None, :] * rho[:, None]
+    d_air /= np.linalg.norm(d_air, axis=-1, keepdims=True)
+    _, d_out = _through_port(camera, d_air, float(n_outside))
+    theta = np.arccos(np.clip(d_out @ f, -1.0, 1.0))
+    px, py = float(pitch_rad[0]), float(pitch_rad[1])
+    cx, cy = W / 2.0 - 0.5, H / 2.0 - 0.5
+    # pixels → equidistant grid
+    X = (2.0 * (np.arange(W) + 0.5) / W - 1.0) * tx  # film, tangent units: +x right (columns)
+    Y = (2.0 * (np.arange(H) + 0.5) / H - 1.0) * ty  # +y down (rows)
+    XX, YY = np.meshgrid(X, Y)
+    r = np.hypot(XX, YY)
+    th = np.interp(r, rho, theta)
+    k = np.where(r > 0, th / np.where(r > 0, r, 1.0), theta[1] / rho[1])  # angle per tangent unit
+    to_x = (cx + XX * k / px).astype(np.float32)
+    to_y = (cy + YY * k / py).astype(np.float32)
+    # equidistant grid → pixels
+    ax = (np.arange(W) - cx) * px
+    ay = (np.arange(H) - cy) * py
+    AX, AY = np.meshgrid(ax, ay)
+    t = np.hypot(AX, AY)
+    inside = t <= theta[-1]
+    rr = np.interp(t, theta, rho)
+    q = np.where(t > 0, rr / np.where(t > 0, t, 1.0), rho[1] / theta[1])  # tangent units per angle
+    from_x = np.where(inside, ((AX * q / tx) + 1.0) * W / 2.0 - 0.5, -1.0).astype(np.float32)
+    from_y = np.where(inside, ((AY * q / ty) + 1.0) * H / 2.0 - 0.5, -1.0).astype(np.float32)
+    return to_x, to_y, from_x, from_y
 
 
 def world_radius_m(scene: Scene) -> float:
