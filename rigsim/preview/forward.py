@@ -52,21 +52,17 @@ single-scattering backscatter integral when it reaches the camera from the
 water, and missing when it lights the target).  The camera leg starts at the port
 (:meth:`SmallAngle.blur_plan`'s ``port_m``): no water, no blur inside the housing.
 
-Measured against Mitsuba's camera leg alone (2026-12-05: a ColorChecker 40 % of the
-field, 3 m behind an 8-inch dome, emitting the fast engine's own irradiance —
-``rigsim.render.hybrid.emissive_camera_pass`` — in water with the Petzold phase
-function cut off at 30°, so that all its scattering is this model's; a = 0.05 /m):
-laid out on the pixels with the centre's pitch the halo's far part was too weak
-(the pinhole's pixels off the axis are cos² θ narrower along the radius): with
-b = 0.3 /m the water 0.5–2 / 4–8 / 8–16 / 16–64 pixels (0.8° each) beside the
-chart got −8 / −17 / −31 / −63 % of Monte Carlo's light and the chart +1.6 %;
-with b = 2.35 /m −2 / −11 / −23 / −51 % and the chart +3.5 %.  On the azimuthal
-equidistant grid (:meth:`SmallAngle.blur_plan`'s ``warp``): +2 / −4 / −7 / −11 %,
-the chart +0.9 %; and −1 / −3 / −5 / −10 %, the chart +1.3 %.  With the full
-phase function (the wide-angle part by :mod:`rigsim.preview.multiple`), chart
-patches against that camera leg: Jerlov 7C at 1 m −2.2 … +3.1 %, mean +0.7 ±
-0.8 % (−5.4 … +4.7 % on the pixels with the water from the pupil); 7C at 3 m +3.5
-± 2.1 %; III at 1 / 3 m +0.8 / +1.2 ± 0.7 / 1.0 %.
+Measured against Mitsuba's camera leg alone (``benchmarks/bench_fast_engine_camera_leg.py``: a
+ColorChecker 40 % of the field behind an 8-inch dome emitting the fast engine's own irradiance,
+2026-12-05): laid out on the pixels with the centre's pitch the halo's far part was too weak (a
+pinhole's pixels off the axis are cos² θ narrower along the radius): with the Petzold phase function
+cut off at 30° (all its scattering this model's), a = 0.05, b = 0.3 /m, the chart 3 m away, the water
+0.5–2 / 4–8 / 8–16 / 16–64 pixels (0.8° each) beside the chart got −8 / −17 / −31 / −63 % of Monte
+Carlo's light; with b = 2.35 /m −2 / −11 / −23 / −51 %.  On the azimuthal equidistant grid
+(:meth:`SmallAngle.blur_plan`'s ``warp``), b = 2.35 /m: −0.4 / −2.6 / −3.9 / −8.8 %, the chart +1.4 %.
+With the full phase function (the wide-angle part by :mod:`rigsim.preview.multiple`), chart patches:
+Jerlov 7C at 1 m mean −0.8 %, −3.2 … +1.5 % (± 0.8 %; −5.4 … +4.7 % on the pixels with the water from
+the pupil); 7C at 3 m +3.1 ± 2.1 %; III at 1 m −0.4 ± 0.7 %.
 """
 
 from __future__ import annotations
@@ -390,7 +386,8 @@ class SmallAngle:
             than the range's): the fast engine's light of each patch against Mitsuba's camera leg (the
             chart emitting the fast engine's own irradiance, ``rigsim.render.hybrid.emissive_camera_pass``)
             spread −5.4 … +4.7 % (the bright patches low, the dark ones high: too much light exchanged
-            between neighbours) without this, −0.6 … +3.7 % (mean +1.8 %) with it.
+            between neighbours) without this, −0.6 … +3.7 % (mean +1.8 %) with it on the pixel grid, −3.2 …
+            +1.5 % (mean −0.8 %) with ``warp`` too (``benchmarks/bench_fast_engine_camera_leg.py``).
         warp
             ``(to_x, to_y, from_x, from_y)`` of :func:`rigsim.scene.optics.equidistant_maps`: the blur is done on
             the azimuthal equidistant grid about the image centre (where a distance is an angle at every
