@@ -43,8 +43,6 @@ from rigsim.config.rig import load_rig  # noqa: E402
 from rigsim.errors import ConfigError  # noqa: E402
 from rigsim.metrics.agreement import comparison_regions  # noqa: E402
 from rigsim.preview import render_preview  # noqa: E402
-from rigsim.preview.backscatter import LightTables, beam_angle  # noqa: E402
-from rigsim.preview.forward import SmallAngle  # noqa: E402
 from rigsim.preview.geometry import scene_surfaces  # noqa: E402
 from rigsim.preview.model import MS_CUTOFF_DEG  # noqa: E402
 from rigsim.preview.multiple import DEFAULT_GRID, default_photons, trace_multiple  # noqa: E402
@@ -53,9 +51,10 @@ from rigsim.scene.build import build_scene  # noqa: E402
 from rigsim.scene.optics import field_width_m  # noqa: E402
 from rigsim.scene.phase_tables import phase_tables  # noqa: E402
 from rigsim.scene.surfaces import target_surfaces  # noqa: E402
-from rigsim.scene.types import unit  # noqa: E402
-from rigsim.spectrum import band_average, band_edges  # noqa: E402
 from rigsim.water import preset  # noqa: E402
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_fast_engine_split import analytic_irradiance  # noqa: E402
 
 
 def water_of(name: str):
@@ -84,16 +83,14 @@ def water_of(name: str):
 
 def fast_irradiance(scene, wl, photons: int, seeds: int) -> np.ndarray:
     """(S, CELLS, CELLS) the fast engine's irradiance on each piece's cells: the analytic direct + small-angle-lit
-    light at the cell centres and the traced class-B light there (mean of ``seeds`` seeds)."""
+    light at the cell centres (:func:`bench_fast_engine_split.analytic_irradiance`) and the traced class-B light there
+    (mean of ``seeds`` seeds)."""
     water = scene.water
     tab = phase_tables(water.phase, water.wavelength_range_nm)
     w = tab.weights_at(wl)
     c, b = water.c_per_m(wl), water.b_per_m(wl)
     cut = np.radians(MS_CUTOFF_DEG)
     F = w @ tab.forward_fraction(cut)
-    sa = SmallAngle(tab, cut, b, w)
-    r_nodes = np.geomspace(0.05, 1000, 16)
-    _, bw = band_edges(wl, None)
     surf = scene_surfaces(scene)
     pieces = target_surfaces(scene.targets[0], scene.camera)
     g = (np.arange(CELLS) + 0.5) / CELLS * 2 - 1
@@ -107,21 +104,7 @@ def fast_irradiance(scene, wl, photons: int, seeds: int) -> np.ndarray:
         nrm = np.cross(u, v)
         nrm = nrm if nrm @ (cam - cen) > 0 else -nrm
         pts = cen + p.size_m[0] / 2 * g[:, None, None] * u + p.size_m[1] / 2 * g[None, :, None] * v
-        for light in scene.lights:
-            lp, axis = np.asarray(light.position_m, float), unit(light.aim)
-            vv = pts - lp
-            r = np.linalg.norm(vv, axis=-1)
-            vh = vv / r[..., None]
-            cos_i = np.clip(-(vh @ nrm), 0, None)
-            th = beam_angle(vh, axis)
-            I = band_average(np.asarray(light.wavelength_nm, float), np.asarray(light.axial_intensity, float),
-                             wl - bw / 2, wl + bw / 2)
-            th_n, btab = sa.blurred_beam(light.beam, r_nodes)
-            lt = LightTables(lp, axis, light.beam.relative_intensity, I, theta_nodes=th_n, r_nodes=r_nodes,
-                             blurred=btab)
-            f = light.beam.relative_intensity(th)[..., None]
-            E[k] += ((cos_i / r ** 2)[..., None] * np.exp(-c * r[..., None]) * I
-                     * (f + lt.blurred_at(th, r) * np.expm1(b * F * r[..., None])))[..., 0]
+        E[k] = analytic_irradiance(scene, pts, nrm, tab, wl, cut)[..., 0]
         flat = pts.reshape(-1, 3)
         E[k] += np.mean([t.irradiance_at(surf, np.full(len(flat), k + 1), flat, np.broadcast_to(nrm, flat.shape))[:, 0]
                          for t in traced], axis=0).reshape(CELLS, CELLS)

@@ -92,26 +92,23 @@ def _water(name: str):
     return preset(name)
 
 
-def _analytic_irradiance(sc, surf, tab, wl, cut, inside):
-    """Direct + small-angle-lit irradiance at the centres of the disk's texture cells ``inside`` (the analytic
-    model's), each light's intensity its average over the band (:func:`rigsim.spectrum.band_average`), as the
-    tracer's and the engine's."""
+def analytic_irradiance(sc, pts, normal, tab, wl, cut, band_nm=None):
+    """The analytic model's direct + small-angle-lit irradiance (…, B) of ``sc``'s lights at points ``pts`` (…, 3)
+    on the side of unit ``normal`` facing them (ψ_c = ``cut``, rad), each light's intensity its average over the
+    band (:func:`rigsim.spectrum.band_average`, widths ``band_nm``), as the tracer's and the engine's."""
     w = tab.weights_at(wl)
     c, b = sc.water.c_per_m(wl), sc.water.b_per_m(wl)
     F = w @ tab.forward_fraction(cut)
     sa = SmallAngle(tab, cut, b, w)
     r_nodes = np.geomspace(0.05, 1000, 16)
-    g = (np.arange(TEXTURE) + 0.5) / TEXTURE * 2 - 1
-    U, V = np.meshgrid(g, g, indexing="ij")
-    pts = surf.center[0] + surf.half_size[0, 0] * (U[..., None] * surf.u[0] + V[..., None] * surf.v[0])
-    _, bw = band_edges(wl, BAND_NM)
+    _, bw = band_edges(wl, band_nm)
     E = 0.0
     for light in sc.lights:
         lp, axis = np.asarray(light.position_m, float), unit(light.aim)
         vv = pts - lp
         r = np.linalg.norm(vv, axis=-1)
         vh = vv / r[..., None]
-        cos_i = np.clip(-(vh @ surf.normal[0]), 0, None)
+        cos_i = np.clip(-(vh @ normal), 0, None)
         th = beam_angle(vh, axis)
         intensity = band_average(np.asarray(light.wavelength_nm, float), np.asarray(light.axial_intensity, float),
                                  wl - bw / 2, wl + bw / 2)
@@ -122,7 +119,15 @@ def _analytic_irradiance(sc, surf, tab, wl, cut, inside):
         f = light.beam.relative_intensity(th)[..., None]
         geo = (cos_i / r ** 2)[..., None] * np.exp(-c * r[..., None]) * intensity
         E = E + geo * (f + fb * np.expm1(b * F * r[..., None]))
-    return E[inside].mean(axis=0)
+    return E
+
+
+def _disk_irradiance(sc, surf, tab, wl, cut, inside):
+    """:func:`analytic_irradiance` at the centres of the disk's texture cells ``inside``, averaged."""
+    g = (np.arange(TEXTURE) + 0.5) / TEXTURE * 2 - 1
+    U, V = np.meshgrid(g, g, indexing="ij")
+    pts = surf.center[0] + surf.half_size[0, 0] * (U[..., None] * surf.u[0] + V[..., None] * surf.v[0])
+    return analytic_irradiance(sc, pts, surf.normal[0], tab, wl, cut, BAND_NM)[inside].mean(axis=0)
 
 
 def main(argv=None):
@@ -168,7 +173,7 @@ def main(argv=None):
             far = np.abs(g) + 1.0 / TEXTURE  # the cell's corner farthest from the centre
             inside = far[:, None] ** 2 + far[None, :] ** 2 <= 1
             e_tr = msd.irradiance[0][inside].mean(axis=0)[0]
-            e_an = _analytic_irradiance(disk_sc, surf, tab, wl, cut, inside)[0]
+            e_an = _disk_irradiance(disk_sc, surf, tab, wl, cut, inside)[0]
             print(f"{name:>12s} {cut_deg:5.0f}  {veil:10.4f} ± {ms.relative_noise[0] * veil:.4f}"
                   f"            {e_an / e_tr:10.4f} ± {msd.relative_noise[1] * e_an / e_tr:.4f}")
             rows = analytic.mean(axis=1) / np.maximum(traced.mean(axis=1), 1e-300)
