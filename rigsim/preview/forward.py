@@ -526,7 +526,7 @@ class BlurPlan:
             if m.any():
                 r_bin = float(np.sqrt(edges[i] * edges[i + 1])) if n_bins > 1 else float(np.nanmedian(r[m]))
                 s_w = max(r_bin - port_m, 1e-6)
-                a = round(s_w / (s_w + view_m), 4) if view_m > 0 else 1.0
+                a = round(s_w / (s_w + view_m), 4)  # 1 without a port
                 self.bins.append((None if n_bins == 1 else m, s_w, a))
         self.finite = finite
         self.Hp, self.Wp = sfft.next_fast_len(2 * H, real=True), sfft.next_fast_len(2 * W, real=True)

@@ -913,11 +913,11 @@ class _Group:
         for index, _ in sources:
             nonzero[index] = True
         nonzero = nonzero.reshape(v.height, W)
-        port = dict(port_m=port_reach_m(v.camera), viewpoint_m=port_viewpoint_m(v.camera, n_outside=v.n_out)) \
+        geometry = dict(port_m=port_reach_m(v.camera), viewpoint_m=port_viewpoint_m(v.camera, n_outside=v.n_out)) \
             if BLUR_PORT else {}
         if BLUR_EQUIDISTANT:
-            port["warp"] = equidistant_maps(v.camera, W, v.height, n_outside=v.n_out, pitch_rad=pitch)
-        plan = small_angle.blur_plan(v.range_m.astype(float), pitch, nonzero, **port)
+            geometry["warp"] = equidistant_maps(v.camera, W, v.height, n_outside=v.n_out, pitch_rad=pitch)
+        plan = small_angle.blur_plan(v.range_m.astype(float), pitch, nonzero, **geometry)
         if plan is None:  # nothing to blur: the source itself (and the veil from behind cancels)
             index, values = sources[0]
             self.full.reshape(-1, B)[index] += values

@@ -624,7 +624,7 @@ def test_the_light_a_target_sends_back_is_read_whole_in_front_of_it():
     With the logarithmic bins alone the chart's range fell inside a bin and a pixel read the part of that bin
     before its range as if the bin's light were spread evenly over it (Jerlov 7C, single strobe, a chart at
     1 m: 5.5 % of the chart's reflected light read, 6.6 % with the bin whole)."""
-    from rigsim.preview.multiple import range_edges
+    from rigsim.preview.multiple import N_RANGE_BINS, range_edges
     from rigsim.scene.optics import port_reach_m
 
     rig = load_rig("rigs/single-strobe-short-arm.toml")
@@ -632,9 +632,10 @@ def test_the_light_a_target_sends_back_is_read_whole_in_front_of_it():
     surf = scene_surfaces(scene)
     pupil = np.asarray(scene.camera.position_m, float)
     edges = range_edges(port_reach_m(scene.camera), 100.0, surf, pupil)
-    near = np.min(np.linalg.norm(surf.center - pupil, axis=1))
-    assert np.any(np.abs(edges - 1.0) < 1e-3) and np.all(edges[edges > 1.0] > 1.0 + 1e-3)  # an edge at the chart
-    assert near >= 1.0 and np.any(np.abs(edges - np.hypot(np.hypot(0.3, 0.2), 1.0)) < 0.02)  # and at its corners
+    plain = np.geomspace(port_reach_m(scene.camera), 100.0, N_RANGE_BINS + 1)
+    assert not np.any(np.abs(plain - 1.0) < 0.01)  # the logarithmic edges alone have none at the chart
+    assert np.any(np.abs(edges - 1.0) < 1e-3)  # an edge at the chart's plane, 1 m ahead
+    assert np.any(np.abs(edges - np.hypot(np.hypot(0.3, 0.2), 1.0)) < 0.02)  # and at its corners (0.6 x 0.41 m)
     wl, kw = _tracer_inputs(scene, photons=60_000, grid=16)
     ms = trace_multiple(scene, surf, list(scene.lights), wl, **kw)
     img = render_preview(scene, **SIZE, wavelengths_nm=WL, multiple=False, layers=("range_m", "object_id"))
