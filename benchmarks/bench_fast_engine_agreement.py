@@ -28,8 +28,8 @@ the fast engine): a run asked for more renders (``--max-seeds``) renders only th
 checks a changed fast engine against the same references without rendering them again (renders a sampler since changed
 drew are not reused: :func:`rigsim.render.integrators.integrator_key`).
 
-``--reference hybrid``: the chart cases lit by strobes are referenced by hybrid images instead
-(:mod:`rigsim.render.hybrid`: the renders' veil plus the chart's light traced from the strobes and seen
+``--reference hybrid``: the chart cases lit by strobes or by continuous lights are referenced by hybrid images
+instead (:mod:`rigsim.render.hybrid`: the renders' veil plus the chart's light traced from the lights and seen
 through the water by a camera pass; kept beside the renders), where the renders' chart patches are
 heavy-tailed (Jerlov III, 5C-9C); the disk and daylight cases stay renders.
 

@@ -37,8 +37,8 @@ the largest render's region mean over the median render's: 1.0–1.6 for light-t
 64 renders of 32 paths per pixel (open water, chart patches in coastal water), 3–55 where a render caught
 such a path (:data:`HEAVY_TAIL`).  A large tail says that cell's reference is not converged, whichever
 way its verdict went; a small one does not prove it is (the rare paths may not have been drawn).
-For a chart lit by strobes a check can take hybrid images instead of renders (``[check] reference =
-"hybrid"``, :mod:`rigsim.render.hybrid`): the chart's light traced from the strobes (bounded weights) and
+For a chart lit by strobes or continuous lights a check can take hybrid images instead of renders (``[check]
+reference = "hybrid"``, :mod:`rigsim.render.hybrid`): the chart's light traced from the lights (bounded weights) and
 seen through the water by a camera pass, plus the renders' veil — compared here exactly as renders are
 (Jerlov 7C, edge-lit rig, chart at 1 m: the largest hybrid image 1.9× the median, against up to 1 733×).
 """

@@ -1,4 +1,4 @@
-"""A second Monte Carlo reference for a chart lit by strobes in turbid water: light tracing + a camera pass.
+"""A second Monte Carlo reference for a chart lit by the rig's lights in turbid water: light tracing + a camera pass.
 
 Why
 ---
@@ -10,9 +10,10 @@ that does not show it (``benchmarks/bench_reference_convergence.py``).  Traced t
 is easy.  The reference here splits every path at its last surface interaction:
 
 1. **the targets' irradiance by light tracing** (:func:`rigsim.render.light_trace.trace_target_irradiance`:
-   photons from the strobes through the renderer's own Mitsuba scene; bounded weights, no tail), on the
-   chart fitted by a quadratic in its plane (:func:`smooth_chart_irradiance`: the light on a chart a metre
-   or more into turbid water changes over decimetres, a patch is 4 cm; the fit pools the 24 patches' photons);
+   photons from the strobes — or the continuous lights, :func:`hybrid_group` — through the renderer's own
+   Mitsuba scene; bounded weights, no tail), on the chart fitted by a quadratic in its plane
+   (:func:`smooth_chart_irradiance`: the light on a chart a metre or more into turbid water changes over
+   decimetres, a patch is 4 cm; the fit pools the 24 patches' photons);
 2. **the camera leg**: Mitsuba's ``volpath`` through the same water with the targets black and *emitting*
    ``ρ/π E`` (:func:`emissive_camera_pass`, one render per band);
 3. **the veil**: the renderer's own ``backscatter`` layer (light of paths that never meet a surface) — of
@@ -47,8 +48,8 @@ from rigsim.scene.surfaces import target_surfaces
 from rigsim.scene.types import Scene
 from rigsim.spectrum import band_average, band_edges
 
-__all__ = ["CELLS", "CAMERA_CELLS", "HybridSettings", "emissive_camera_pass", "hybrid_image", "hybrid_reflected",
-           "smooth_chart_irradiance", "smooth_chart_veil", "supports_hybrid"]
+__all__ = ["CELLS", "CAMERA_CELLS", "HybridSettings", "emissive_camera_pass", "hybrid_group", "hybrid_image",
+           "hybrid_reflected", "smooth_chart_irradiance", "smooth_chart_veil", "supports_hybrid"]
 
 mi, dr = mitsuba()
 
@@ -72,10 +73,22 @@ class HybridSettings:
         return f"hybrid-{self.photons}ph-{self.spp}spp-o{self.order}"
 
 
+def hybrid_group(scene: Scene) -> str | None:
+    """The light group the hybrid reference replaces — ``"strobe"`` (the ``flash`` layer, J per flash) or
+    ``"continuous"`` (``radiance``, W) — or None where it does not apply: it needs one ColorChecker in water,
+    lit by lights of one kind and no daylight (the light tracer starts photons at the rig's lights only)."""
+    if scene.water is None or len(scene.targets) != 1 or scene.targets[0].kind != "colorchecker":
+        return None
+    kinds = {l.kind for l in scene.lights}
+    if len(kinds) != 1 or (kinds == {"continuous"} and scene.daylight is not None):
+        return None
+    kind = kinds.pop()
+    return kind if kind in ("strobe", "continuous") else None
+
+
 def supports_hybrid(scene: Scene) -> bool:
-    """Whether the hybrid reference applies: one ColorChecker, lit by strobes only, in water."""
-    return (scene.water is not None and len(scene.targets) == 1 and scene.targets[0].kind == "colorchecker"
-            and bool(scene.lights) and all(l.kind == "strobe" for l in scene.lights))
+    """Whether the hybrid reference applies (:func:`hybrid_group`)."""
+    return hybrid_group(scene) is not None
 
 
 def smooth_chart_irradiance(pieces, labels, E: np.ndarray, cell_area_m2: np.ndarray, order: int = 2) -> np.ndarray:
@@ -235,14 +248,18 @@ def emissive_camera_pass(scene: Scene, E: np.ndarray, wavelength_nm, bandwidth_n
 def hybrid_reflected(scene: Scene, *, width: int, height: int, wavelength_nm, bandwidth_nm=None,
                      settings: HybridSettings = HybridSettings(), seed: int = 0) -> tuple[np.ndarray, TargetIrradiance]:
     """One independent estimate (H, W, B) of the light whose last surface interaction is the chart, at the
-    camera (J/(m² sr nm) per flash): the strobes' irradiance on it by light tracing (``settings.photons``),
-    fitted (``settings.order``; < 0: the traced cells as they are), seen through the water by a camera pass
-    (``settings.spp`` per band).  Returns it and the traced irradiance."""
-    if not supports_hybrid(scene):
-        raise ValueError("the hybrid reference needs one colorchecker lit by strobes only, in water")
+    camera (J/(m² sr nm) per flash from strobes, W/(m² sr nm) from continuous lights: :func:`hybrid_group`):
+    the lights' irradiance on it by light tracing (``settings.photons``), fitted (``settings.order``; < 0: the
+    traced cells as they are), seen through the water by a camera pass (``settings.spp`` per band).  Returns it
+    and the traced irradiance."""
+    group = hybrid_group(scene)
+    if group is None:
+        raise ValueError("the hybrid reference needs one colorchecker lit by lights of one kind (strobes, or "
+                         "continuous lights without daylight), in water")
     wl, bw = band_edges(np.asarray(wavelength_nm, float), bandwidth_nm)
     lt = trace_target_irradiance(scene, wavelength_nm=wl, bandwidth_nm=bw, photons=settings.photons,
-                                 seed=int(seed) & 0xFFFF, batches=4, cells=CELLS)
+                                 seed=int(seed) & 0xFFFF, batches=4, cells=CELLS,
+                                 lights=[l for l in scene.lights if l.kind == group])
     pieces = [p for t in scene.targets for p in target_surfaces(t, scene.camera)]
     E = lt.irradiance
     if settings.order >= 0:
@@ -252,15 +269,19 @@ def hybrid_reflected(scene: Scene, *, width: int, height: int, wavelength_nm, ba
     return refl, lt
 
 
-def hybrid_image(render, reflected: np.ndarray, *, veil_sigma_px: float = 0.0):
-    """A Monte Carlo render (:class:`~rigsim.spectral_image.SpectralImage` with ``flash_backscatter`` and
-    ``object_id``) whose flash is replaced by its veil (``flash_backscatter``: the paths that met no surface)
-    plus ``reflected`` (:func:`hybrid_reflected`: the paths whose last surface is the chart).  With
-    ``veil_sigma_px`` > 0 the veil over the chart is pooled by :func:`smooth_chart_veil` (in ``flash`` and in
-    ``flash_backscatter``)."""
-    veil = render.layers.get("flash_backscatter")
+def hybrid_image(render, reflected: np.ndarray, *, group: str = "strobe", veil_sigma_px: float = 0.0):
+    """A Monte Carlo render (:class:`~rigsim.spectral_image.SpectralImage` with the group's backscatter layer
+    and ``object_id``) whose light from ``group`` (:func:`hybrid_group`: ``"strobe"`` — ``flash``, veil
+    ``flash_backscatter``; ``"continuous"`` — ``radiance``, veil ``backscatter``) is replaced by its veil (the
+    paths that met no surface) plus ``reflected`` (:func:`hybrid_reflected`: the paths whose last surface is
+    the chart).  With ``veil_sigma_px`` > 0 the veil over the chart is pooled by :func:`smooth_chart_veil` (in
+    the image and in the backscatter layer)."""
+    if group not in ("strobe", "continuous"):
+        raise ValueError(f"group must be 'strobe' or 'continuous', not {group!r}")
+    veil_key = "flash_backscatter" if group == "strobe" else "backscatter"
+    veil = render.layers.get(veil_key)
     if veil is None:
-        raise ValueError("the render has no flash_backscatter layer")
+        raise ValueError(f"the render has no {veil_key} layer")
     veil = np.asarray(veil, float)
     layers = dict(render.layers)
     if veil_sigma_px > 0:
@@ -268,9 +289,12 @@ def hybrid_image(render, reflected: np.ndarray, *, veil_sigma_px: float = 0.0):
         if oid is None:
             raise ValueError("pooling the veil over the chart needs the render's object_id layer")
         veil = smooth_chart_veil(veil, np.asarray(oid) > 0, veil_sigma_px)
-        layers["flash_backscatter"] = veil.astype(np.asarray(render.layers["flash_backscatter"]).dtype)
+        layers[veil_key] = veil.astype(np.asarray(render.layers[veil_key]).dtype)
     if veil.shape != reflected.shape:
         raise ValueError(f"shapes differ: {veil.shape} vs {reflected.shape}")
-    flash = (veil + reflected).astype(np.asarray(render.layers["flash"]).dtype)
     meta = {**render.meta, "reference": "hybrid", "veil_sigma_px": float(veil_sigma_px)}
-    return dataclasses.replace(render, layers={**layers, "flash": flash}, meta=meta)
+    if group == "strobe":
+        flash = (veil + reflected).astype(np.asarray(render.layers["flash"]).dtype)
+        return dataclasses.replace(render, layers={**layers, "flash": flash}, meta=meta)
+    radiance = (veil + reflected).astype(np.asarray(render.radiance).dtype)
+    return dataclasses.replace(render, radiance=radiance, layers=layers, meta=meta)

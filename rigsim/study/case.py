@@ -233,9 +233,10 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
                 _write_render(f, img)
         return img
 
-    from rigsim.render.hybrid import supports_hybrid
+    from rigsim.render.hybrid import hybrid_group
 
-    hybrid = ck.reference == "hybrid" and supports_hybrid(scene)
+    group = hybrid_group(scene)
+    hybrid = ck.reference == "hybrid" and group is not None
 
     def reference(i):
         """Reference image ``i``: render ``i``; or (hybrid) the mean of renders ``i·k … i·k + k − 1`` (k
@@ -256,7 +257,7 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
                                        seed=(seed + 7919 * i) % 2**31)
             if f is not None:
                 _write_array(f, refl)
-        return hybrid_image(img, refl, veil_sigma_px=ck.hybrid_veil_sigma_px)
+        return hybrid_image(img, refl, group=group, veil_sigma_px=ck.hybrid_veil_sigma_px)
 
     refs = [reference(i) for i in range(ck.seeds)]
     regions, metrics = compare_renders(fast, refs, target_kind, fast_batches=fast_batches)

@@ -37,7 +37,8 @@
     seeds = 4               # the reference is their mean; its standard error is their spread / sqrt(seeds)
     max_seeds = 16          # optional: two stages — from the first `seeds` renders' noise, as many more as bring
     target_se = 0.015       # the regions' relative standard error (90th percentile) to target_se, up to max_seeds
-    reference = "monte-carlo"  # or "hybrid": a chart lit by strobes is referenced by images whose chart light is
+    reference = "monte-carlo"  # or "hybrid": a chart lit by the rig's strobes or its continuous lights (no daylight)
+                            # is referenced by images whose chart light is
                             # light-traced and seen through the water by a camera pass (rigsim.render.hybrid;
                             # for turbid water, where the renders' chart patches are heavy-tailed)
     hybrid_photons = 1000000  # per reference image (hybrid)
@@ -135,8 +136,9 @@ class CheckSettings:
     max_seeds: int | None = None
     target_se: float = 0.015
     #: ``"monte-carlo"`` (each reference image a render) or ``"hybrid"`` (:mod:`rigsim.render.hybrid`: for a
-    #: chart lit by strobes, each render's flash is its veil plus the chart's light by light tracing and a
-    #: camera pass of ``hybrid_spp`` per band, ``hybrid_photons`` photons; other cases stay renders).
+    #: chart lit by strobes, or by continuous lights without daylight — ``rigsim.render.hybrid.hybrid_group`` —
+    #: each render's flash (or radiance) is its veil plus the chart's light by light tracing and a camera pass
+    #: of ``hybrid_spp`` per band, ``hybrid_photons`` photons; other cases stay renders).
     reference: str = "monte-carlo"
     hybrid_photons: int = 1_000_000
     hybrid_spp: int = 64

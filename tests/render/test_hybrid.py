@@ -31,18 +31,28 @@ def _scene(water="coastal", distance=1.0, rig="twin-strobes-45-wide", target="co
     return build_scene(r, preset(water), target, distance, size_m=0.4 * field_width_m(r.camera, distance))
 
 
-def test_the_hybrid_reference_agrees_with_monte_carlo_where_the_renders_converge():
+@pytest.mark.parametrize("rig", ["twin-strobes-45-wide", "video-lights-pair"])
+def test_the_hybrid_reference_agrees_with_monte_carlo_where_the_renders_converge(rig):
+    """Strobes (the ``flash`` layer) and continuous lights (``radiance``, W not J: the light tracer's lights are
+    the group's, the hybrid replaces the group's own image and veil)."""
     from rigsim.metrics.agreement import colour_groups, comparison_regions
     from rigsim.render import render
+    from rigsim.render.hybrid import hybrid_group
 
-    scene = _scene()
+    scene = _scene(rig=rig)
+    group = hybrid_group(scene)
+    assert group == ("continuous" if rig == "video-lights-pair" else "strobe")
     wl = np.arange(420.0, 681.0, 40.0)
     w, h = 48, 32
     mc = [render(scene, width=w, height=h, spp=16, seed=11 + i, wavelengths_nm=wl, layers=("object_id", "backscatter"))
           for i in range(6)]
     hy = [hybrid_image(mc[i], hybrid_reflected(scene, width=w, height=h, wavelength_nm=wl,
-                                               settings=HybridSettings(photons=200_000, spp=16), seed=5 + i)[0])
+                                               settings=HybridSettings(photons=200_000, spp=16), seed=5 + i)[0],
+                       group=group)
           for i in range(3)]
+    for x in mc + hy:  # the compared image is the group's own: the other group is dark
+        other = x.layers.get("flash") if group == "continuous" else x.radiance
+        assert other is None or not np.any(other)
     regions = comparison_regions(np.asarray(mc[0].layers["object_id"]), mc[0].meta.get("object_ids", {}),
                                  "colorchecker")
     z, rel = [], []
@@ -137,9 +147,24 @@ def test_pooling_the_veil_over_the_chart_moves_no_patch_of_the_fast_engines_veil
     assert worst(1) > 0.01
 
 
-def test_the_hybrid_reference_applies_to_a_chart_lit_by_strobes_only():
-    assert supports_hybrid(_scene())
+def test_the_hybrid_reference_applies_to_a_chart_lit_by_one_kind_of_light_in_water():
+    import dataclasses
+
+    from rigsim.render.hybrid import hybrid_group
+
+    assert hybrid_group(_scene()) == "strobe"
+    assert hybrid_group(_scene(rig="video-lights-pair")) == "continuous"
     assert not supports_hybrid(_scene(target="black-disk"))
-    assert not supports_hybrid(_scene(rig="video-lights-pair"))
-    with pytest.raises(ValueError, match="colorchecker lit by strobes"):
+    strobes, video = _scene(), _scene(rig="video-lights-pair")
+    assert not supports_hybrid(dataclasses.replace(
+        strobes, rig=dataclasses.replace(strobes.rig, lights=strobes.rig.lights + video.rig.lights)))  # mixed
+    assert not supports_hybrid(dataclasses.replace(strobes, water=None))
+    from rigsim.scene.types import Daylight
+
+    assert not supports_hybrid(dataclasses.replace(video, daylight=Daylight(depth_m=5.0)))  # the tracer has no sun
+    assert supports_hybrid(dataclasses.replace(strobes, daylight=Daylight(depth_m=5.0)))  # daylight is not flash
+    assert not supports_hybrid(_scene(rig="ambient-only"))  # no lights
+    with pytest.raises(ValueError, match="colorchecker lit by lights of one kind"):
         hybrid_reflected(_scene(target="black-disk"), width=8, height=6, wavelength_nm=[450.0, 550.0])
+    with pytest.raises(ValueError, match="group must be"):
+        hybrid_image(None, np.zeros((2, 2, 1)), group="daylight")
