@@ -161,6 +161,8 @@ def main(argv=None) -> int:
         scene = build_scene(rig, water, "colorchecker", a.distance, size_m=a.fill * field_width_m(rig.camera, a.distance))
     wl, bw = band_edges(np.arange(400.0, 701.0, 10.0))
     strobes = [l for l in scene.lights if l.kind == "strobe"]
+    if not strobes:  # this benchmark compares flashes; the agreement benchmark's hybrid takes continuous lights too
+        ap.error(f"--rig {a.rig}: has no strobes (this benchmark compares the flash; allowed: a rig with strobes)")
     t0 = time.perf_counter()
     surf = scene_surfaces(scene)
     tab = phase_tables(water.phase, water.wavelength_range_nm)
