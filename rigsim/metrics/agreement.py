@@ -411,7 +411,8 @@ def _distances_text(v) -> str:
 def published_agreement(water_name: str, lighting: str = "strobes", rig: str | None = None) -> PublishedAgreement | None:
     """The benchmark's summary for a water (None if the benchmark did not measure it).
 
-    With ``rig``, that rig's row if the benchmark checked it; otherwise (or without ``rig``) the water's row
+    With ``rig``, that rig's row if the benchmark checked it (of its rows at different distances, the one whose
+    worst region is farthest from Monte Carlo); otherwise (or without ``rig``) the water's row
     whose worst region is farthest from Monte Carlo over the rigs it checked — the cautious answer for a rig
     it did not."""
     from rigsim.data import DATA_DIR, read_csv_table
@@ -434,16 +435,15 @@ def published_agreement(water_name: str, lighting: str = "strobes", rig: str | N
                 tolerance=float(cols["tolerance"][i]), beyond=int(cols["beyond"][i]), cells=int(cols["cells"][i]),
                 measured=str(cols["measured"][i]), settings=str(cols["settings"][i]),
                 rig=str(cols["rig"][i])))
-    same = [p for p in found if rig and p.rig == rig]
-    if same:
-        return same[0]
-    return max(found, key=lambda p: abs(p.worst_deviation), default=None)
+    same = [p for p in found if rig and p.rig == rig]  # the rig's rows (one per distance set): the worst of them
+    return max(same or found, key=lambda p: abs(p.worst_deviation), default=None)
 
 
 def write_published(rows: list[dict], path, *, settings: str) -> None:
-    """Write the per-lighting, per-water, per-rig summary of agreement rows (``agreement.csv`` of studies,
-    plus a ``lighting`` column) to ``path`` (atomically), keeping the other waters and rigs already there
-    (rows of the older tables without a ``rig`` column, which summed over rigs, are dropped)."""
+    """Write the per-lighting, per-water, per-rig, per-distance-set summary of agreement rows (``agreement.csv``
+    of studies, plus a ``lighting`` column) to ``path`` (atomically), keeping the other waters, rigs and distance
+    sets already there — a run at 0.5 and 6 m adds rows beside the 1 and 3 m ones, a run at 1 and 3 m replaces
+    them (rows of the older tables without a ``rig`` column, which summed over rigs, are dropped)."""
     import csv
     import datetime
     import io
@@ -453,11 +453,11 @@ def write_published(rows: list[dict], path, *, settings: str) -> None:
     from rigsim.fileio import atomic_write_text
 
     path = Path(path)
-    old: dict[tuple[str, str, str], dict] = {}
+    old: dict[tuple[str, str, str, str], dict] = {}
     if path.is_file():
         with open(path, newline="") as fh:
             lines = [ln for ln in fh if not ln.startswith("#")]
-        old = {(r["lighting"], r["water"], r["rig"]): r for r in csv.DictReader(lines) if r.get("rig")}
+        old = {(r["lighting"], r["water"], r["rig"], r["distances_m"]): r for r in csv.DictReader(lines) if r.get("rig")}
     by = defaultdict(list)
     for r in rows:
         if r["quantity"] == "radiance":
@@ -466,9 +466,9 @@ def write_published(rows: list[dict], path, *, settings: str) -> None:
     for (light, water, rig), rs in by.items():
         w = max(rs, key=lambda r: abs(float(r["deviation"])))
         cases = {(r["rig"], r["target"], float(r["distance_m"])) for r in rs}
-        old[(light, water, rig)] = {
-            "lighting": light, "water": water, "rig": rig, "cases": len(cases),
-            "distances_m": ", ".join(f"{d:g}" for d in sorted({c[2] for c in cases})),
+        dist = ", ".join(f"{d:g}" for d in sorted({c[2] for c in cases}))
+        old[(light, water, rig, dist)] = {
+            "lighting": light, "water": water, "rig": rig, "cases": len(cases), "distances_m": dist,
             "worst_deviation": f"{float(w['deviation']):.4f}", "worst_se": f"{float(w['deviation_se']):.4f}",
             "worst_where": f"{w['region'].replace('patch:', '')}, {w['group']}, {w['target']} at "
                            f"{float(w['distance_m']):g} m",

@@ -200,6 +200,13 @@ def test_the_published_table_keeps_each_rig_apart_and_a_rig_it_did_not_check_get
     assert published_agreement("coastal").rig == "wide"
     assert published_agreement("jerlov-3C") is None
     assert "old" not in path.read_text().split("\n", 3)[3]  # the older layout's row is gone
+    # another set of distances for the same rig adds a row beside the first; the rig's answer is the worse of them
+    write_published([_row("wide", "jerlov-9C", "disk", 0.07, "disagrees", distance=6.0)], path, settings="test")
+    wide = published_agreement("jerlov-9C", rig="wide")
+    assert (wide.worst_deviation, wide.distances_m, wide.beyond) == (0.07, "6", 1)
+    write_published([_row("wide", "jerlov-9C", "disk", 0.01, distance=6.0)], path, settings="test")  # 6 m again: replaced
+    assert published_agreement("jerlov-9C", rig="wide").worst_deviation == -0.04  # the 1 m row is the worse now
+    assert path.read_text().count("strobes,jerlov-9C,wide,") == 2
 
 
 def test_the_published_line_says_when_the_reference_is_too_noisy_to_show_agreement():
