@@ -206,7 +206,7 @@ def main(argv=None) -> int:
 
         depths = ", ".join(f"{float(d):g}" for d in _list(args.depths))
         ms = "" if args.multiple_scattering == "off" else f", multiple scattering {args.multiple_scattering}"
-        hyb = (f", strobe-lit charts referenced by the hybrid estimate ({args.hybrid_photons} photons, "
+        hyb = (f", charts lit by the rig's lights referenced by the hybrid estimate ({args.hybrid_photons} photons, "
                f"{args.hybrid_spp} spp per band, {args.hybrid_veil_renders} renders' veil per image, pooled over the "
                f"chart by a {args.hybrid_veil_sigma_px:g}-px local quadratic)"
                if args.reference == "hybrid" else "")
