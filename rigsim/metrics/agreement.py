@@ -408,6 +408,14 @@ def _distances_text(v) -> str:
     return f"{float(v):g}" if isinstance(v, (int, float, np.floating)) else str(v)
 
 
+def _distance_set(text: str) -> set[float]:
+    """The distances (m) of a ``distances_m`` entry ("0.5, 1, 3")."""
+    try:
+        return {float(x) for x in str(text).split(",") if x.strip()}
+    except ValueError:
+        return set()
+
+
 def published_agreement(water_name: str, lighting: str = "strobes", rig: str | None = None) -> PublishedAgreement | None:
     """The benchmark's summary for a water (None if the benchmark did not measure it).
 
@@ -442,8 +450,8 @@ def published_agreement(water_name: str, lighting: str = "strobes", rig: str | N
 def write_published(rows: list[dict], path, *, settings: str) -> None:
     """Write the per-lighting, per-water, per-rig, per-distance-set summary of agreement rows (``agreement.csv``
     of studies, plus a ``lighting`` column) to ``path`` (atomically), keeping the other waters, rigs and distance
-    sets already there — a run at 0.5 and 6 m adds rows beside the 1 and 3 m ones, a run at 1 and 3 m replaces
-    them (rows of the older tables without a ``rig`` column, which summed over rigs, are dropped)."""
+    sets already there — a run at 0.5 and 6 m adds rows beside the 1 and 3 m ones; a row whose distances are all
+    in a new row's is replaced by it (rows of the older tables without a ``rig`` column, which summed over rigs, are dropped)."""
     import csv
     import datetime
     import io
@@ -467,6 +475,9 @@ def write_published(rows: list[dict], path, *, settings: str) -> None:
         w = max(rs, key=lambda r: abs(float(r["deviation"])))
         cases = {(r["rig"], r["target"], float(r["distance_m"])) for r in rs}
         dist = ", ".join(f"{d:g}" for d in sorted({c[2] for c in cases}))
+        covered = {c[2] for c in cases}
+        for key in [k for k in old if k[:3] == (light, water, rig) and _distance_set(k[3]) <= covered]:
+            del old[key]  # superseded: its distances are all in the new row
         old[(light, water, rig, dist)] = {
             "lighting": light, "water": water, "rig": rig, "cases": len(cases), "distances_m": dist,
             "worst_deviation": f"{float(w['deviation']):.4f}", "worst_se": f"{float(w['deviation_se']):.4f}",

@@ -207,6 +207,11 @@ def test_the_published_table_keeps_each_rig_apart_and_a_rig_it_did_not_check_get
     write_published([_row("wide", "jerlov-9C", "disk", 0.01, distance=6.0)], path, settings="test")  # 6 m again: replaced
     assert published_agreement("jerlov-9C", rig="wide").worst_deviation == -0.04  # the 1 m row is the worse now
     assert path.read_text().count("strobes,jerlov-9C,wide,") == 2
+    # a run over 1 and 6 m (and 3) supersedes both: one row left, with all its distances
+    write_published([_row("wide", "jerlov-9C", "disk", 0.02, distance=d) for d in (1.0, 3.0, 6.0)], path,
+                    settings="test")
+    assert path.read_text().count("strobes,jerlov-9C,wide,") == 1
+    assert published_agreement("jerlov-9C", rig="wide").distances_m == "1, 3, 6"
 
 
 def test_the_published_line_says_when_the_reference_is_too_noisy_to_show_agreement():
