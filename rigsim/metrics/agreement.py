@@ -451,7 +451,8 @@ def write_published(rows: list[dict], path, *, settings: str) -> None:
     """Write the per-lighting, per-water, per-rig, per-distance-set summary of agreement rows (``agreement.csv``
     of studies, plus a ``lighting`` column) to ``path`` (atomically), keeping the other waters, rigs and distance
     sets already there — a run at 0.5 and 6 m adds rows beside the 1 and 3 m ones; a row whose distances are all
-    in a new row's is replaced by it (rows of the older tables without a ``rig`` column, which summed over rigs, are dropped)."""
+    in a new row's is replaced by it (rows of the older tables without a ``rig`` column, which summed over rigs,
+    are dropped)."""
     import csv
     import datetime
     import io
@@ -465,7 +466,8 @@ def write_published(rows: list[dict], path, *, settings: str) -> None:
     if path.is_file():
         with open(path, newline="") as fh:
             lines = [ln for ln in fh if not ln.startswith("#")]
-        old = {(r["lighting"], r["water"], r["rig"], r["distances_m"]): r for r in csv.DictReader(lines) if r.get("rig")}
+        old = {(r["lighting"], r["water"], r["rig"], r["distances_m"]): r
+               for r in csv.DictReader(lines) if r.get("rig")}
     by = defaultdict(list)
     for r in rows:
         if r["quantity"] == "radiance":

@@ -489,7 +489,8 @@ def trust_section(d: Path, agreement: list[dict], spec: dict) -> list[str]:
            f"median).</p>"
            + (f"<p>{_cases_text(len({(r['rig'], r['water'], r['target'], r['distance_m']) for r in agreement if r.get('reference') == 'hybrid'}))} "
               f"referenced by the hybrid estimate instead of plain renders: each reference image "
-              f"is the renders' veil (the light that met no surface) plus the chart's light traced from the rig's lights and seen "
+              f"is the renders' veil (the light that met no surface) plus the chart's light traced from the rig's lights "
+              f"and seen "
               f"through the water by a camera pass (reference = \"hybrid\" in agreement.csv; rigsim.render.hybrid) — in "
               f"turbid water the renders' chart patches are heavy-tailed, the traced light is not.</p>"
               if any(r.get("reference") == "hybrid" for r in agreement) else "")

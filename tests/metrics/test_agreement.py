@@ -204,7 +204,8 @@ def test_the_published_table_keeps_each_rig_apart_and_a_rig_it_did_not_check_get
     write_published([_row("wide", "jerlov-9C", "disk", 0.07, "disagrees", distance=6.0)], path, settings="test")
     wide = published_agreement("jerlov-9C", rig="wide")
     assert (wide.worst_deviation, wide.distances_m, wide.beyond) == (0.07, "6", 1)
-    write_published([_row("wide", "jerlov-9C", "disk", 0.01, distance=6.0)], path, settings="test")  # 6 m again: replaced
+    # 6 m again: replaced
+    write_published([_row("wide", "jerlov-9C", "disk", 0.01, distance=6.0)], path, settings="test")
     assert published_agreement("jerlov-9C", rig="wide").worst_deviation == -0.04  # the 1 m row is the worse now
     assert path.read_text().count("strobes,jerlov-9C,wide,") == 2
     # a run over 1 and 6 m (and 3) supersedes both: one row left, with all its distances
