@@ -38,7 +38,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rigsim.preview.geometry import SceneSurfaces, occluded
+from rigsim.preview.geometry import SceneSurfaces, cast_rays, occluded
 
 __all__ = ["LightTables", "s_nodes", "cumulative_backscatter", "interpolate_cumulative", "beam_angle"]
 
@@ -112,7 +112,7 @@ def s_nodes(s_max: float, n_nodes: int) -> tuple[np.ndarray, np.ndarray]:
 def cumulative_backscatter(origin: np.ndarray, direction: np.ndarray, s: np.ndarray, lights: list[LightTables],
                            *, bw: np.ndarray, c: np.ndarray, kappa_light: np.ndarray, kappa_cam: np.ndarray,
                            components, forward: bool, surfaces: SceneSurfaces | None = None,
-                           chunk_elems: int = 4_000_000, spread=None) -> np.ndarray:
+                           chunk_elems: int = 4_000_000, spread=None, shade_beyond_hit: bool = False) -> np.ndarray:
     """Cumulative backscatter ``∫₀^{s_j}`` at the nodes for each ray: (N, n_nodes, Λ).
 
     Parameters
@@ -134,7 +134,10 @@ def cumulative_backscatter(origin: np.ndarray, direction: np.ndarray, s: np.ndar
     forward
         Use the SAA illumination (see module docstring).
     surfaces
-        If given, volume points in a surface's shadow get no light from that light.
+        If given, volume points in a surface's shadow get no light from that light (the points in front of
+        the ray's own first surface: beyond it the ray sees nothing, and a shadow there would only bend the
+        integral's last step towards the surface, −0.1 % at a disk's centre in coastal water at 3 m);
+        ``shade_beyond_hit``: every point tested (as before 2026-12-05).
     spread
         With ``forward``: ``(cos_psi, r) → (…, Λ)`` the volume scattering function of the beam's
         forward-scattered light, whose directions have spread about the line from the light
@@ -151,6 +154,9 @@ def cumulative_backscatter(origin: np.ndarray, direction: np.ndarray, s: np.ndar
         o, d = origin[n0:n0 + rows], direction[n0:n0 + rows]
         p = o[:, None, :] + s[None, :, None] * d[:, None, :]  # (n, M, 3)
         g = np.zeros((len(o), M, L))
+        if surfaces is not None and len(surfaces):
+            t_hit = np.full(len(o), np.inf) if shade_beyond_hit else cast_rays(surfaces, o, d)[0]
+            in_front = s[None, :] < t_hit[:, None]  # (n, M)
         for lt in lights:
             v = p - lt.position
             r = np.linalg.norm(v, axis=-1)
@@ -170,7 +176,7 @@ def cumulative_backscatter(origin: np.ndarray, direction: np.ndarray, s: np.ndar
                 illum = beta * illum
             val = illum * (lt.intensity / np.maximum(r, 1e-9)[..., None] ** 2)
             if surfaces is not None and len(surfaces):
-                val *= ~occluded(surfaces, p, lt.position)[..., None]
+                val *= ~(occluded(surfaces, p, lt.position) & in_front)[..., None]
             g += val
         g *= cam[None] * jac[None, :, None]
         # trapezoid cumulative sum in u

@@ -120,6 +120,7 @@ def test_layers_are_those_of_the_straightforward_model(name, monkeypatch):
     monkeypatch.setattr(preview_model, "SPREAD_PHASE", False)
     monkeypatch.setattr(preview_model, "BLUR_PORT", False)
     monkeypatch.setattr(preview_model, "BLUR_EQUIDISTANT", False)
+    monkeypatch.setattr(preview_model, "VEIL_SHADOWS", False)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # the reference's expm1 overflows in thick water; aspect warnings
         ref = _all_layers(reference_preview(scene, **kw))
