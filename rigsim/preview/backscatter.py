@@ -176,7 +176,9 @@ def cumulative_backscatter(origin: np.ndarray, direction: np.ndarray, s: np.ndar
                 illum = beta * illum
             val = illum * (lt.intensity / np.maximum(r, 1e-9)[..., None] ** 2)
             if surfaces is not None and len(surfaces):
-                val *= ~(occluded(surfaces, p, lt.position) & in_front)[..., None]
+                shade = np.zeros(in_front.shape, bool)  # only the points in front of the ray's hit are tested
+                shade[in_front] = occluded(surfaces, p[in_front], lt.position)
+                val *= ~shade[..., None]
             g += val
         g *= cam[None] * jac[None, :, None]
         # trapezoid cumulative sum in u
