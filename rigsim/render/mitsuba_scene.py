@@ -208,7 +208,8 @@ def forget_scenes_except(scene: Scene) -> None:
 
 def build_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: int = -1,
                         rr_depth: int | None = None, phase=None, integrator: str = "rigsim",
-                        ambient=None, backscatter_aov: bool = False, flat_shapes: str = "mesh",
+                        ambient=None, backscatter_aov: bool = False, class_split_deg: float | None = None,
+                        flat_shapes: str = "mesh",
                         particles: bool = True) -> MitsubaScene:
     """Load the Mitsuba scene of one render pass (or reuse the one loaded last time for the same
     objects and options: :data:`SCENE_CACHE_SIZE`; a loaded scene is not changed by rendering it).
@@ -219,10 +220,11 @@ def build_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: 
     if phase is not None:  # (comparisons with a replaced phase function: not kept)
         return _load_mitsuba_scene(scene, lights=lights, mode=mode, max_depth=max_depth, rr_depth=rr_depth,
                                    phase=phase, integrator=integrator, ambient=ambient,
-                                   backscatter_aov=backscatter_aov, flat_shapes=flat_shapes, particles=particles)
+                                   backscatter_aov=backscatter_aov, class_split_deg=class_split_deg, flat_shapes=flat_shapes,
+                                   particles=particles)
     refs = (scene, tuple(lights), ambient)
     key = (id(scene), tuple(id(x) for x in lights), id(ambient), mode, max_depth, rr_depth, integrator,
-           backscatter_aov, flat_shapes, particles)
+           backscatter_aov, class_split_deg, flat_shapes, particles)
     for i, (r, k, ms) in enumerate(_SCENE_CACHE):
         if k == key and r[0] is scene and r[2] is ambient and all(a is b for a, b in zip(r[1], lights)):
             _SCENE_CACHE.append(_SCENE_CACHE.pop(i))
@@ -230,7 +232,7 @@ def build_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: 
     forget_scenes_except(scene)
     ms = _load_mitsuba_scene(scene, lights=lights, mode=mode, max_depth=max_depth, rr_depth=rr_depth,
                              integrator=integrator, ambient=ambient, backscatter_aov=backscatter_aov,
-                             flat_shapes=flat_shapes, particles=particles)
+                             class_split_deg=class_split_deg, flat_shapes=flat_shapes, particles=particles)
     _SCENE_CACHE.append((refs, key, ms))
     del _SCENE_CACHE[:-SCENE_CACHE_SIZE]
     return ms
@@ -238,7 +240,8 @@ def build_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: 
 
 def _load_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: int = -1,
                         rr_depth: int | None = None, phase=None, integrator: str = "rigsim",
-                        ambient=None, backscatter_aov: bool = False, flat_shapes: str = "mesh",
+                        ambient=None, backscatter_aov: bool = False, class_split_deg: float | None = None,
+                        flat_shapes: str = "mesh",
                         particles: bool = True) -> MitsubaScene:
     """Load the Mitsuba scene of one render pass.
 
@@ -263,6 +266,9 @@ def _load_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: 
     backscatter_aov
         The rigsim integrator also returns each path's backscatter (its light before it first
         meets a surface) as AOVs: the ``backscatter`` pass from the same paths.
+    class_split_deg
+        The rigsim integrator also returns the light of the fast engine's class A (ψ_c in degrees;
+        :class:`~rigsim.render.integrators.strobe.RigsimVolIntegrator`) as AOVs; None: not.
     ambient
         Daylight field tables (:func:`rigsim.render.daylight.ambient_tables`) lighting this
         pass as well (rigsim integrator only), or None.
@@ -278,7 +284,8 @@ def _load_mitsuba_scene(scene: Scene, *, lights, mode: str = "full", max_depth: 
     from rigsim.render.integrators import integrator_dict  # registers the rigsim plugins
 
     d: dict = {"type": "scene", "integrator": integrator_dict(integrator, max_depth=max_depth, rr_depth=rr_depth,
-                                                               backscatter_aov=backscatter_aov)}
+                                                               backscatter_aov=backscatter_aov,
+                                                               class_split_deg=class_split_deg)}
     has_water = scene.water is not None and mode != "clear"
     medium_obj = None
     try:

@@ -105,8 +105,9 @@ def render_pass(ms: MitsubaScene, camera, *, width: int, height: int, spp: int, 
     band_lo, band_w
         Lower band edges and widths (nm).
     aov_out
-        If given and the integrator returns the four ``backscatter.j`` AOVs, their band-averaged
-        image is stored in ``aov_out["backscatter"]`` (same layout as the image).
+        If given, the band-averaged image of each group of four AOVs the integrator returns
+        (``backscatter.j``, ``class_a.j``) is stored in ``aov_out["backscatter"]``, ``aov_out["class_a"]``
+        (same layout as the image).
 
     Returns
     -------
@@ -116,8 +117,9 @@ def render_pass(ms: MitsubaScene, camera, *, width: int, height: int, spp: int, 
     B = len(band_lo)
     n_pix = width * height
     acc = np.zeros(n_pix * B, np.float64)
-    acc_b = None
     integrator = ms.scene.integrator()
+    aov_groups = list(dict.fromkeys(n.split(".")[0] for n in integrator.aov_names())) if aov_out is not None else []
+    acc_b = {g: np.zeros(n_pix * B, np.float64) for g in aov_groups}
     lo_arr = mi.Float(band_lo.astype(np.float32))
     w_arr = mi.Float(band_w.astype(np.float32))
     dropped = 0
@@ -166,7 +168,7 @@ def render_pass(ms: MitsubaScene, camera, *, width: int, height: int, spp: int, 
             bands.append(b)
         ray.wavelengths = mi.Spectrum(*lams)
         L, _, aovs = integrator.sample(ms.scene, sampler, ray, ms.medium, mi.Bool(True))
-        want_b = aov_out is not None and len(aovs) == 4
+        want_b = bool(aov_groups) and len(aovs) == 4 * len(aov_groups)
         bands_arr = mi.Vector4u(*bands) if hasattr(mi, "Vector4u") else bands
         dr.eval(L, bands_arr, *(aovs if want_b else ()))
         Ln = np.asarray(L, np.float64).reshape(4, n)
@@ -179,11 +181,10 @@ def render_pass(ms: MitsubaScene, camera, *, width: int, height: int, spp: int, 
         bins = (pix_g[None, :] * B + Bn).ravel()
         acc += np.bincount(bins, weights=Ln.ravel(), minlength=n_pix * B)
         if want_b:
-            Lb = np.stack([np.asarray(a, np.float64) for a in aovs])
-            Lb[bad | ~np.isfinite(Lb)] = 0.0  # a dropped path is dropped from both
-            if acc_b is None:
-                acc_b = np.zeros(n_pix * B, np.float64)
-            acc_b += np.bincount(bins, weights=Lb.ravel(), minlength=n_pix * B)
+            for gi, g in enumerate(aov_groups):
+                Lb = np.stack([np.asarray(a, np.float64) for a in aovs[4 * gi:4 * gi + 4]])
+                Lb[bad | ~np.isfinite(Lb)] = 0.0  # a dropped path is dropped from every layer
+                acc_b[g] += np.bincount(bins, weights=Lb.ravel(), minlength=n_pix * B)
         if tick is not None:
             tick()
     if fixed_counts:
@@ -192,8 +193,9 @@ def render_pass(ms: MitsubaScene, camera, *, width: int, height: int, spp: int, 
     else:
         scale = B / (4.0 * spp)
     img = acc.reshape(height, width, B) * scale
-    if acc_b is not None:
-        aov_out["backscatter"] = acc_b.reshape(height, width, B) * scale
+    if aov_out is not None:
+        for g, a in acc_b.items():
+            aov_out[g] = a.reshape(height, width, B) * scale
     return img, dropped
 
 

@@ -39,7 +39,7 @@ INTEGRATORS = {"rigsim": PLUGIN_NAME, "volpath": "volpath"}
 
 
 def integrator_dict(name: str = "rigsim", *, max_depth: int = -1, rr_depth: int | None = None,
-                    backscatter_aov: bool = False) -> dict:
+                    backscatter_aov: bool = False, class_split_deg: float | None = None) -> dict:
     """Mitsuba dict of integrator ``name`` (a key of :data:`INTEGRATORS`).
 
     ``rr_depth``: the depth Russian roulette starts at (None: the integrator's own default — for
@@ -48,6 +48,9 @@ def integrator_dict(name: str = "rigsim", *, max_depth: int = -1, rr_depth: int 
 
     ``backscatter_aov`` (rigsim only): the integrator also returns the backscatter estimate
     of each path as AOVs (see :meth:`RigsimVolIntegrator.aov_names`).
+
+    ``class_split_deg`` (rigsim only): the integrator also returns the light of the fast engine's class A
+    (paths with at most one turn by more than this angle and no surface) as AOVs (a check of the fast engine).
     """
     if name not in INTEGRATORS:
         raise ConfigError(f"unknown integrator {name!r}", field="integrator", allowed=", ".join(INTEGRATORS))
@@ -59,6 +62,14 @@ def integrator_dict(name: str = "rigsim", *, max_depth: int = -1, rr_depth: int 
             raise ConfigError("only the rigsim integrator returns backscatter AOVs", field="integrator",
                               allowed="rigsim")
         d["backscatter_aov"] = True
+    if class_split_deg is not None:
+        if name != "rigsim":
+            raise ConfigError("only the rigsim integrator returns the class-A AOVs", field="integrator",
+                              allowed="rigsim")
+        if not 0.0 <= float(class_split_deg) <= 180.0:
+            raise ConfigError(f"class_split_deg must be in [0, 180], got {class_split_deg}",
+                              field="integrator.class_split_deg", allowed="0 <= angle <= 180")
+        d["class_split_deg"] = float(class_split_deg)
     return d
 
 

@@ -131,7 +131,15 @@ estimation), ``L_ind`` everything else.
 * **Backscatter from the same paths** (``backscatter_aov``): the light each path
   gathers before it first meets a surface is the estimate of the pass with black
   targets; it is returned as four AOVs, so the ``backscatter`` layer costs no second
-  render.  ``max_depth`` counts vertices as ``volpath`` does
+  render.
+* **Path classes of the fast engine** (``class_split_deg`` = ψ_c, off by default): the light of the paths
+  that meet no surface and turn by more than ψ_c at most once (scattering angles at the water vertices,
+  the turn towards the light included) is returned as four more AOVs, ``class_a.0..3``: the fast engine's
+  class A (:mod:`rigsim.preview.multiple`), computed by its analytic model; the rest of the image is its
+  class B.  Each technique labels its own path (a halo estimate turns twice), so the split is unbiased
+  for each class; it lets the fast engine's two parts be checked against Monte Carlo separately
+  (``benchmarks/bench_fast_engine_classes.py``).  With the option off nothing of this is traced.
+  ``max_depth`` counts vertices as ``volpath`` does
   (1: nothing, since lights cannot be seen; 2: single scattering / direct light).
 
 Every light is connected at every vertex (no random light choice): rigsim passes
@@ -192,6 +200,8 @@ from rigsim.render.integrators.common import (
     water_phase,
 )
 from rigsim.render.variant import mitsuba
+
+import numpy as np
 
 __all__ = ["RigsimVolIntegrator", "PLUGIN_NAME", "SAMPLING_REVISION", "sampling_defaults"]
 
@@ -305,6 +315,11 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
         for name, v in (("equiangular_vertex", self.cont_eq), ("equiangular_vertex_camera", self.cont_eq0)):
             if not 0.0 <= v < 1.0:
                 raise ConfigError(f"{name} must be in [0, 1), got {v}", field=f"integrator.{name}")
+        # the fast engine's class A (see the module docstring) as AOVs: cos ψ_c, or None (off)
+        split = props.get("class_split_deg", None)
+        if split is not None and not 0.0 <= float(split) <= 180.0:
+            raise ConfigError(f"class_split_deg must be in [0, 180], got {split}", field="integrator.class_split_deg")
+        self.class_cos = None if split is None else float(np.cos(np.radians(float(split))))
         self.daylight = None
 
     def set_ambient(self, tables, world_radius_m: float = 1000.0) -> "RigsimVolIntegrator":
@@ -485,6 +500,7 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
             c_h = f1 * w_over_pa * (T_h * sigma_s / pdf_h) * ph2 * val_h
             # a product that overflows (inf · 0 in one wavelength; ~4 in 2·10⁶ paths of the
             # demo's jerlov-II cases) is dropped here rather than the whole path sample
+            halo_nee.dirs = (w_h, ds_h.d)  # its two turns, for the path classes
             return dr.select(ok_h & dr.all(dr.isfinite(c_h)), c_h, 0.0)
 
         em_ptrs = mi.EmitterPtr(emitters) if emitters else None
@@ -499,10 +515,23 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                 pos = dr.select(k == j, light_pos[j], pos)
             return dr.gather(mi.EmitterPtr, em_ptrs, k, active), axis, pos
 
-        def cond(sampler, active, depth, o, d, beta, L, hero, pw, Lb, clean, hw, qs):
+        def wide(u, v):
+            """1 where the path turns from direction ``u`` to ``v`` by more than the class split angle."""
+            return dr.select(dr.dot(u, v) < self.class_cos, mi.UInt32(1), mi.UInt32(0))
+
+        def class_a(clean, nw, c, *turns):
+            """``c`` where the path it ends (no surface yet, ``nw`` wide turns so far, then ``turns``) is class A."""
+            if self.class_cos is None:
+                return 0.0
+            n = mi.UInt32(nw)
+            for u, v in turns:
+                n += wide(u, v)
+            return dr.select(clean & (n <= 1), c, 0.0)
+
+        def cond(sampler, active, depth, o, d, beta, L, hero, pw, Lb, clean, hw, qs, Lc, nw):
             return active
 
-        def body(sampler, active, depth, o, d, beta, L, hero, pw, Lb, clean, hw, qs):
+        def body(sampler, active, depth, o, d, beta, L, hero, pw, Lb, clean, hw, qs, Lc, nw):
             # ---- termination: depth limit, zero throughput, Russian roulette
             active &= (depth + 1 < max_depth) & dr.any(beta != 0.0)
             c_v = (dr.select(depth < self.cone_depth, mi.Float(self.cone), mi.Float(self.cone_deep))
@@ -544,6 +573,7 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                     c_d = dr.select(med, beta * w_d * ph_val * val * (w * hw[k]), 0.0)
                     L += c_d
                     Lb += dr.select(clean, c_d, 0.0)
+                    Lc += class_a(clean, nw, c_d, (d, ds.d))
                     if eq:
                         # (2) an equiangular sample toward light k
                         t_e, pdf_e = seg.sample(sampler.next_1d(active), sampler.next_1d(active),
@@ -559,6 +589,7 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                         c_e = dr.select(ok, beta * (T_e * sigma_s / pdf_e) * ph_e * val_e * (w_e * hw[k]), 0.0)
                         L += c_e
                         Lb += dr.select(clean, c_e, 0.0)
+                        Lc += class_a(clean, nw, c_e, (d, ds_e.d))
                         segs.append(seg)
                         t_es.append(t_e)
                         ok_es.append(ok)
@@ -672,8 +703,11 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                                                 axes_c, axes_c[k], light_pos[k], em, deeper, c=c_v)
                         L += c_h
                         Lb += dr.select(clean, c_h, 0.0)
+                        Lc += class_a(clean, nw, c_h, (d, halo_nee.dirs[0]), halo_nee.dirs)
                 med &= ph_pdf > 0
                 beta = dr.select(med, beta * w_med * ph_w, beta)
+                if self.class_cos is not None:
+                    nw = dr.select(med, nw + wide(d, wo), nw)
                 o_next = dr.select(med, x_c, o_next)
                 d_next = dr.select(med, wo, d_next)
                 cont |= med
@@ -744,32 +778,37 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                 qs = mi.Float(0.0)
             depth = dr.select(cont, depth + 1, depth)
             active &= cont
-            return sampler, active, depth, o_next, d_next, beta, L, hero, pw, Lb, clean, hw, qs
+            return sampler, active, depth, o_next, d_next, beta, L, hero, pw, Lb, clean, hw, qs, Lc, nw
 
         if emitters or self.ambient is None:
             # the hero wavelength that drives distance sampling is drawn once per path
             hero = mi.UInt32(dr.minimum(sampler.next_1d(active) * 4.0, 3.0))
             state = (sampler, active, mi.UInt32(0), mi.Point3f(ray.o), mi.Vector3f(ray.d),
                      mi.Spectrum(1.0), mi.Spectrum(0.0), hero, mi.Spectrum(0.25), mi.Spectrum(0.0),
-                     mi.Bool(True), [mi.Float(1.0) for _ in emitters], mi.Float(0.0))
+                     mi.Bool(True), [mi.Float(1.0) for _ in emitters], mi.Float(0.0), mi.Spectrum(0.0),
+                     mi.UInt32(0))
             state = dr.while_loop(state, cond, body,
                                   labels=("sampler", "active", "depth", "o", "d", "beta", "L", "hero", "pw",
-                                          "Lb", "clean", "hw", "qs"),
+                                          "Lb", "clean", "hw", "qs", "Lc", "nw"),
                                   label="rigsim_vol")
-            L, Lb = state[6], state[9]
+            L, Lb, Lc = state[6], state[9], state[13]
         else:
-            L, Lb = mi.Spectrum(0.0), mi.Spectrum(0.0)
+            L, Lb, Lc = mi.Spectrum(0.0), mi.Spectrum(0.0), mi.Spectrum(0.0)
         if self.daylight is not None:
             La, Lab = self.daylight.sample_ambient(scene, sampler, ray, medium, active)
             L, Lb = L + La, Lb + Lab
         aovs = [Lb[0], Lb[1], Lb[2], Lb[3]] if self.backscatter_aov else []
+        if self.class_cos is not None:
+            aovs += [Lc[0], Lc[1], Lc[2], Lc[3]]
         return L, mi.Bool(True), aovs
 
     # -- daylight ---------------------------------------------------------------------------
 
     def aov_names(self):
-        """``backscatter.0..3`` (the path's four wavelengths) when ``backscatter_aov`` is on."""
-        return [f"backscatter.{j}" for j in range(4)] if self.backscatter_aov else []
+        """``backscatter.0..3`` (the path's four wavelengths) when ``backscatter_aov`` is on, then
+        ``class_a.0..3`` when ``class_split_deg`` is given."""
+        names = [f"backscatter.{j}" for j in range(4)] if self.backscatter_aov else []
+        return names + ([f"class_a.{j}" for j in range(4)] if self.class_cos is not None else [])
 
     def to_string(self):
         return (f"RigsimVolIntegrator[max_depth={self.max_depth}, rr_depth={self.rr_depth}, mis={self.mis}, "
