@@ -19,7 +19,8 @@ about a minute per 16 renders of 96 x 64 at 64 paths per pixel on 2 cores.
     python benchmarks/bench_fast_engine_classes.py [--rig twin-strobes-edge-lighting --waters jerlov-9C
         --distances 0.5 --target black-disk --renders 16 --seeds 8]
 
-Measured 2026-12-06 (``twin-strobes-edge-lighting``, Jerlov 9C, black disk at 0.5 m, ψ_c = 30 deg; 48 x 32,
+Measured 2026-12-06 with the same split by probe scripts (``twin-strobes-edge-lighting``, Jerlov 9C, black disk at
+0.5 m, ψ_c = 30 deg; 48 x 32,
 48 renders of 64 paths per pixel; the engine's tracer as the fast engine runs it, 3 seeds of 600 000 photons,
 48 cells): Monte Carlo's class A is 48 / 50 / 58 % of the open water's veil (blue / green / red); the analytic
 class A / Monte Carlo's 0.998 / 1.001 / 1.004 (+- 0.7 / 0.5 / 0.2 %, 96 x 64, 16 renders): the analytic model
@@ -30,8 +31,13 @@ Monte Carlo), with the exact estimators (collision estimator, no δ-truncation, 
 the beams' light outside the field of view that small-angle scattering brings in: at ψ_c = 10 deg (class B
 then 71-83 % of the veil) tracer / Monte Carlo is 0.961 / 0.973 / 0.995 and the whole veil 0.972 / 0.982 /
 0.999, against 0.959 / 0.948 / 0.969 at 30 deg.  The fast engine's own class B (100 000 photons, 16 cells)
-reads lower again at small photon counts (25 000 photons at 48 x 32: 0.88-0.90), its estimate being
-heavy-tailed (seeds with a vertex near the port).
+is the same in expectation (96 x 64, 16 renders: 0.937 / 0.926 / 0.944 with 400 000 photons, engine SE 0.3 %;
+0.949 / 0.929 / 0.946 with 100 000) but its seeds scatter: 8 seeds of the default 98 304 photons read 0.906 / 0.906 /
+0.922 (their own SE says 0.6 %; the estimate is heavy-tailed: seeds with a vertex near the port).
+With this benchmark (96 x 64, 16 renders, 8 seeds; ``--distances 0.5,3``): edge-lit 9C at 0.5 m class A 0.997 /
+0.997 / 1.007, at 3 m 0.982 / 0.983 / 0.988, class B 0.949 / 0.949 / 0.977; 7C at 0.5 m A 0.999 / 1.001 / 1.010,
+B 0.928 / 0.932 / 0.952, at 3 m A 0.982-0.988, B 0.997 / 0.985 / 1.027; ``twin-strobes-45-wide`` 9C at 1 m A
+0.991-0.994, B 0.972 / 0.974 / 0.995: class B is low where the beams lie just outside the field of view.
 """
 
 from __future__ import annotations
