@@ -59,6 +59,8 @@ from rigsim.preview.model import MS_CUTOFF_DEG  # noqa: E402
 from rigsim.render.mitsuba_scene import build_mitsuba_scene  # noqa: E402
 from rigsim.render.renderer import render_pass  # noqa: E402
 from rigsim.scene.build import build_scene  # noqa: E402
+from rigsim.scene.types import Scene  # noqa: E402
+from rigsim.water import preset  # noqa: E402
 from rigsim.spectrum import band_edges  # noqa: E402
 
 WAVELENGTHS_NM = np.arange(400.0, 701.0, 10.0)
@@ -74,7 +76,7 @@ def main(argv=None):
     ap.add_argument("--rig", default="twin-strobes-edge-lighting", help="a shipped rig (rigs/<name>.toml)")
     ap.add_argument("--waters", default="jerlov-9C")
     ap.add_argument("--distances", default="0.5", help="target distances (m)")
-    ap.add_argument("--target", default="black-disk")
+    ap.add_argument("--target", default="black-disk", help="a target of build_scene, or none (open water only)")
     ap.add_argument("--size", default="96x64", help="image size of both engines (px)")
     ap.add_argument("--renders", type=int, default=16, help="independent Monte Carlo renders per case")
     ap.add_argument("--spp", type=int, default=64, help="paths per pixel of each render")
@@ -106,7 +108,8 @@ def main(argv=None):
     for water in a.waters.split(","):
         for dist in distances:
             t0 = time.perf_counter()
-            scene = build_scene(rig, water, a.target, dist)
+            scene = (Scene(rig=rig, water=preset(water), targets=()) if a.target == "none"
+                     else build_scene(rig, water, a.target, dist))
             strobes = [li for li in scene.lights if li.kind == "strobe"]
             ms = build_mitsuba_scene(scene, lights=strobes, class_split_deg=a.cutoff)
             M, A_mc = [], []
