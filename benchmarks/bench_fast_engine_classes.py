@@ -53,6 +53,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from rigsim.config.rig import load_rig  # noqa: E402
+from rigsim.errors import ConfigError  # noqa: E402
 from rigsim.metrics.agreement import colour_groups  # noqa: E402
 from rigsim.preview import render_preview  # noqa: E402
 from rigsim.preview.model import MS_CUTOFF_DEG  # noqa: E402
@@ -96,7 +97,16 @@ def main(argv=None):
         ap.error("--size WxH (e.g. 96x64), --distances comma-separated metres")
     if a.renders < 2 or a.seeds < 2:
         ap.error("--renders and --seeds must be >= 2 (standard errors)")
+    if not 0.0 < a.cutoff <= 90.0:
+        ap.error("--cutoff must be in (0, 90] deg")
     rig = load_rig(rig_path)
+    try:  # names checked before any render: a usage line, not a traceback
+        for water in a.waters.split(","):
+            preset(water)
+            if a.target != "none":
+                build_scene(rig, water, a.target, distances[0])
+    except ConfigError as e:
+        ap.error(str(e))
     wl = WAVELENGTHS_NM
     centre, bw = band_edges(wl, None)
     lo = centre - bw / 2
