@@ -46,8 +46,8 @@ Where it comes from (``--truncated``, 2026-12-06): in the same water without its
 (:func:`truncated_water`; the transport the fast engine's δ-truncation and quasi-single camera leg assume) the fast
 engine is right — 9C, black disk at 0.5 m, 48 x 32, 24 renders, 3 seeds of 400 000 photons: analytic A / Monte Carlo
 A 1.002 / 1.007 / 1.010, class B 0.976 / 0.966 / 0.987 (+- 1.0-1.4 %), the whole 0.989 / 0.987 / 1.001 — while
-Monte Carlo's own veil in the real water is brighter than in the truncated one (48 renders against 24, same seeds
-of the scene): the whole 1.057 / 1.053 / 1.037 (+- 1.1 / 0.8 / 0.3 %), class A 1.054 / 1.033 / 1.021, class B
+Monte Carlo's own veil in the real water is brighter than in the truncated one (48 renders against 24, the same
+scene and size): the whole 1.057 / 1.053 / 1.037 (+- 1.1 / 0.8 / 0.3 %), class A 1.054 / 1.033 / 1.021, class B
 1.061 / 1.073 / 1.060 (+- 0.5-1.6 %).  So the estimators are right and the deficit is the model of small-angle
 scattering: taken as no scattering (δ-truncation at ψ_c = 30 deg keeps b (1 − F) but not the transport
 coefficient b (1 − g): many turns of 5-30 deg add up to wide ones), on the light legs and on the camera leg alike
