@@ -88,23 +88,20 @@ WAVELENGTHS_NM = np.arange(400.0, 701.0, 10.0)
 
 
 def truncated_water(water, cutoff_deg: float):
-    """``water`` without its scatterings by less than ``cutoff_deg``: each phase component's cells wholly below the
-    angle removed (:meth:`rigsim.scene.phase_tables.PhaseTables.forward_cells`, the photon tracer's δ-truncation) and
-    renormalised, the weights and ``b`` scaled by what is left (``b (1 − F)``), ``a`` unchanged.  The fast engine's
-    approximations of small-angle scattering (δ-truncation, the quasi-single camera leg) are exact in it."""
-    tab = phase_tables(water.phase, water.wavelength_range_nm)
-    grid = tab.grid
-    cone = tab.forward_cells(np.radians(cutoff_deg))
-    comps = [TabulatedPhase(np.where(cone, 0.0, m), grid, name=f"truncated-{cutoff_deg:g}") for m in tab.masses]
-    Fk = tab.forward_fraction(np.radians(cutoff_deg))
+    """``water`` without its scatterings by less than ``cutoff_deg``: the photon tracer's δ-truncation
+    (:meth:`rigsim.scene.phase_tables.PhaseTables.without_forward`) made a water, ``b (1 − F)``, ``a`` unchanged.
+    The fast engine's approximations of small-angle scattering (δ-truncation, the quasi-single camera leg) are
+    exact in it."""
+    full = phase_tables(water.phase, water.wavelength_range_nm)
+    tab, Fk = full.without_forward(np.radians(cutoff_deg))
+    comps = [TabulatedPhase(m, tab.grid, name=f"truncated-{cutoff_deg:g}") for m in tab.masses]
 
     def weights(wl):
-        w = np.asarray(tab.weights_at(wl), float) * (1.0 - Fk)
-        return (w / w.sum(axis=-1, keepdims=True)).reshape(np.shape(wl) + (len(Fk),))
+        return tab.weights_at(wl).reshape(np.shape(wl) + (len(Fk),))
 
     lo, hi = water.wavelength_range_nm
     wl = np.linspace(lo, hi, int(round(hi - lo)) + 1)
-    F = tab.weights_at(wl) @ Fk
+    F = full.weights_at(wl) @ Fk
     return TabulatedWater(f"{water.name} without scatterings below {cutoff_deg:g} deg",
                           Spectrum1D(values=water.a_per_m(wl), wavelength_nm=wl, label="a"),
                           Spectrum1D(values=water.b_per_m(wl) * (1.0 - F), wavelength_nm=wl, label="b"),

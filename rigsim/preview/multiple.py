@@ -736,15 +736,12 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
         # δ-truncation: the same tables without the forward cone (each component renormalised; a cell
         # of zero mass is never drawn), and the flights' coefficients without what the cone held
         psi_t = min(float(cutoff_rad if truncate_rad is None else truncate_rad), float(cutoff_rad))
-        cone = tables.forward_cells(psi_t)
-        Fk = tables.forward_fraction(psi_t)  # (K,)
+        tables, Fk = tables.without_forward(psi_t)  # (K,) what each component lost
         F_t = weights @ Fk  # (B,)
         c = c - b * F_t
         b = b * (1.0 - F_t)
         weights = weights * (1.0 - Fk)[None, :]
         weights = weights / np.maximum(weights.sum(axis=1, keepdims=True), 1e-300)
-        tables = dataclasses.replace(tables, masses=np.where(cone[None, :], 0.0, tables.masses)
-                                     / np.maximum(1.0 - Fk, 1e-300)[:, None])
     cam = scene.camera
     n_out = outside_index(scene)
     pupil = np.asarray(cam.position_m, float)

@@ -119,7 +119,7 @@ def render_pass(ms: MitsubaScene, camera, *, width: int, height: int, spp: int, 
     acc = np.zeros(n_pix * B, np.float64)
     integrator = ms.scene.integrator()
     aov_groups = list(dict.fromkeys(n.split(".")[0] for n in integrator.aov_names())) if aov_out is not None else []
-    acc_b = {g: np.zeros(n_pix * B, np.float64) for g in aov_groups}
+    acc_aov = {g: np.zeros(n_pix * B, np.float64) for g in aov_groups}
     lo_arr = mi.Float(band_lo.astype(np.float32))
     w_arr = mi.Float(band_w.astype(np.float32))
     dropped = 0
@@ -184,7 +184,7 @@ def render_pass(ms: MitsubaScene, camera, *, width: int, height: int, spp: int, 
             for gi, g in enumerate(aov_groups):
                 Lb = np.stack([np.asarray(a, np.float64) for a in aovs[4 * gi:4 * gi + 4]])
                 Lb[bad | ~np.isfinite(Lb)] = 0.0  # a dropped path is dropped from every layer
-                acc_b[g] += np.bincount(bins, weights=Lb.ravel(), minlength=n_pix * B)
+                acc_aov[g] += np.bincount(bins, weights=Lb.ravel(), minlength=n_pix * B)
         if tick is not None:
             tick()
     if fixed_counts:
@@ -194,7 +194,7 @@ def render_pass(ms: MitsubaScene, camera, *, width: int, height: int, spp: int, 
         scale = B / (4.0 * spp)
     img = acc.reshape(height, width, B) * scale
     if aov_out is not None:
-        for g, a in acc_b.items():
+        for g, a in acc_aov.items():
             aov_out[g] = a.reshape(height, width, B) * scale
     return img, dropped
 

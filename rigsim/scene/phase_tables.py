@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import functools
 import weakref
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -115,6 +116,19 @@ class PhaseTables:
             return 0.0
         mid = np.sqrt(e[:-1][cells] * e[1:][cells])
         return float(np.sqrt(np.sum(mass * mid ** 2) / mass.sum()))
+
+    def without_forward(self, cutoff_rad: float) -> tuple["PhaseTables", np.ndarray]:
+        """The tables without the scatterings by less than ``cutoff_rad`` (δ-truncation: Wiscombe 1977): each
+        component's :meth:`forward_cells` emptied and the rest renormalised, the weight table scaled by what each
+        component keeps (``w_k (1 − F_k)``, renormalised); and the (K,) :meth:`forward_fraction` ``F_k`` removed
+        (the scattering coefficient that goes with the new tables is ``b (1 − Σ_k w_k F_k)``)."""
+        cone = self.forward_cells(cutoff_rad)
+        Fk = self.forward_fraction(cutoff_rad)
+        keep = np.maximum(1.0 - Fk, 1e-300)
+        w = self.weights * (1.0 - Fk)[None, :]
+        return dataclasses.replace(self, masses=np.where(cone[None, :], 0.0, self.masses) / keep[:, None],
+                                   weights=w / np.maximum(w.sum(axis=1, keepdims=True), 1e-300),
+                                   name=f"{self.name} without < {np.degrees(cutoff_rad):g} deg"), Fk
 
     def forward_cells(self, cutoff_rad: float) -> np.ndarray:
         """Mask of the cells that lie wholly below the angle ``cutoff_rad``."""

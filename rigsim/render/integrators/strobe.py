@@ -178,6 +178,8 @@ In a scene dict: ``"integrator": {"type": "rigsim_vol", "max_depth": -1, "rr_dep
 
 from __future__ import annotations
 
+import math
+
 from rigsim.errors import ConfigError
 from rigsim.render.integrators.common import (
     MIS_HEURISTICS,
@@ -200,8 +202,6 @@ from rigsim.render.integrators.common import (
     water_phase,
 )
 from rigsim.render.variant import mitsuba
-
-import numpy as np
 
 __all__ = ["RigsimVolIntegrator", "PLUGIN_NAME", "SAMPLING_REVISION", "sampling_defaults"]
 
@@ -319,7 +319,7 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
         split = props.get("class_split_deg", None)
         if split is not None and not 0.0 <= float(split) <= 180.0:
             raise ConfigError(f"class_split_deg must be in [0, 180], got {split}", field="integrator.class_split_deg")
-        self.class_cos = None if split is None else float(np.cos(np.radians(float(split))))
+        self.class_cos = None if split is None else math.cos(math.radians(float(split)))
         self.daylight = None
 
     def set_ambient(self, tables, world_radius_m: float = 1000.0) -> "RigsimVolIntegrator":
@@ -470,7 +470,8 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
         bsdf_ctx = mi.BSDFContext()
 
         def halo_nee(sampler, make_ray, f_pdf_of, axes, axis, p_light, em, active, p_choice=1.0, c=None):
-            """A light's halo at a vertex (next-event estimation, without the path weight).
+            """A light's halo at a vertex (next-event estimation, without the path weight), and the
+            directions of its two turns (leaving the vertex, then towards the light: for the path classes).
 
             A direction from the light's aureole around ``axis`` (unit, toward ``p_light``), a
             traced segment along it, an equiangular sample on it and a shadow ray to ``em``;
@@ -500,8 +501,7 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
             c_h = f1 * w_over_pa * (T_h * sigma_s / pdf_h) * ph2 * val_h
             # a product that overflows (inf · 0 in one wavelength; ~4 in 2·10⁶ paths of the
             # demo's jerlov-II cases) is dropped here rather than the whole path sample
-            halo_nee.dirs = (w_h, ds_h.d)  # its two turns, for the path classes
-            return dr.select(ok_h & dr.all(dr.isfinite(c_h)), c_h, 0.0)
+            return dr.select(ok_h & dr.all(dr.isfinite(c_h)), c_h, 0.0), (w_h, ds_h.d)
 
         em_ptrs = mi.EmitterPtr(emitters) if emitters else None
 
@@ -683,7 +683,7 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                         em_y, axis_y, pos_y = pick_light(sampler, axes_y, ok_y)
                         lit += halo_nee(sampler, si_t.spawn_ray,
                                         lambda w: bsdf_t.eval_pdf(bsdf_ctx, si_t, si_t.to_local(w), ok_y),
-                                        axes_y, axis_y, pos_y, em_y, ok_y, 1.0 / len(emitters), c_v)
+                                        axes_y, axis_y, pos_y, em_y, ok_y, 1.0 / len(emitters), c_v)[0]
                     w_over_p = mis_weight_over_pdf(p_sa, p_cont, self.mis)
                     c_t = beta * w_med * ph_t * dr.exp(-sigma_t * si_t.t) * lit * w_over_p
                     L += dr.select(ok_t & (p_sa > 0) & dr.all(dr.isfinite(c_t)), c_t, 0.0)
@@ -698,12 +698,13 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                     for k, em in enumerate(emitters):
                         pa_cont = aureole.pdf(axes_c[k], wo)
                         hw_next[k] = dr.select(deeper, self.mis_weight(pdf_mix, pa_cont), 1.0)
-                        c_h = beta_c * halo_nee(sampler, lambda w: mi.Ray3f(x_c, w, time, wavelengths),
+                        c_h, h_dirs = halo_nee(sampler, lambda w: mi.Ray3f(x_c, w, time, wavelengths),
                                                 lambda w: phase.eval_pdf(ctx, mei_c, w, deeper),
                                                 axes_c, axes_c[k], light_pos[k], em, deeper, c=c_v)
+                        c_h = beta_c * c_h
                         L += c_h
                         Lb += dr.select(clean, c_h, 0.0)
-                        Lc += class_a(clean, nw, c_h, (d, halo_nee.dirs[0]), halo_nee.dirs)
+                        Lc += class_a(clean, nw, c_h, (d, h_dirs[0]), h_dirs)
                 med &= ph_pdf > 0
                 beta = dr.select(med, beta * w_med * ph_w, beta)
                 if self.class_cos is not None:
@@ -743,7 +744,7 @@ class RigsimVolIntegrator(mi.SamplingIntegrator):
                 halo_s = reflects(bsdf, bsdf_ctx, si, hit)
                 hit_h = hit & (depth + 2 < max_depth) & halo_s
                 em_s, axis_s, pos_s = pick_light(sampler, axes_s, hit_h)
-                c_sh = halo_nee(sampler, si.spawn_ray, lambda w: bsdf.eval_pdf(bsdf_ctx, si, si.to_local(w), hit_h),
+                c_sh, _ = halo_nee(sampler, si.spawn_ray, lambda w: bsdf.eval_pdf(bsdf_ctx, si, si.to_local(w), hit_h),
                                 axes_s, axis_s, pos_s, em_s, hit_h, 1.0 / len(emitters), c_v)
                 L += dr.select(hit_h, beta_hit * c_sh * w_hit, 0.0)
             bs, bw = bsdf.sample(bsdf_ctx, si, sampler.next_1d(surf), sampler.next_2d(surf), surf)
