@@ -129,6 +129,8 @@ def main(argv=None):
     ap.add_argument("--truncated", action="store_true",
                     help="the waters without their scatterings below ψ_c (truncated_water): the fast engine's own "
                          "transport, to tell its estimators' error from that of its small-angle approximations")
+    ap.add_argument("--cache", default="", help="a directory where each case's Monte Carlo renders are kept "
+                    "(and read back by a later run with the same case, size, renders and spp)")
     a = ap.parse_args(argv)
     rig_path = ROOT / "rigs" / f"{a.rig}.toml"
     if not rig_path.is_file():
@@ -166,14 +168,26 @@ def main(argv=None):
             scene = (Scene(rig=rig, water=wat, targets=()) if a.target == "none"
                      else build_scene(rig, wat, a.target, dist))
             strobes = [li for li in scene.lights if li.kind == "strobe"]
-            ms = build_mitsuba_scene(scene, lights=strobes, class_split_deg=a.cutoff)
-            M, A_mc = [], []
-            for i in range(a.renders):
-                aov: dict = {}
-                img, _ = render_pass(ms, scene.camera, width=W, height=H, spp=a.spp, seed=9100 + 7919 * i,
-                                     band_lo=lo, band_w=bw, aov_out=aov)
-                M.append(img)
-                A_mc.append(aov["class_a"])
+            key = (f"{a.rig}_{water}{'-truncated' if a.truncated else ''}_{dist:g}m_{a.target}_{W}x{H}_"
+                   f"{a.renders}x{a.spp}_psi{a.cutoff:g}.npz")
+            kept = Path(a.cache) / key if a.cache else None
+            if kept is not None and kept.is_file():
+                with np.load(kept) as z:
+                    M, A_mc = list(z["whole"]), list(z["class_a"])
+            else:
+                ms = build_mitsuba_scene(scene, lights=strobes, class_split_deg=a.cutoff)
+                M, A_mc = [], []
+                for i in range(a.renders):
+                    aov: dict = {}
+                    img, _ = render_pass(ms, scene.camera, width=W, height=H, spp=a.spp, seed=9100 + 7919 * i,
+                                         band_lo=lo, band_w=bw, aov_out=aov)
+                    M.append(img)
+                    A_mc.append(aov["class_a"])
+                if kept is not None:  # written whole or not at all
+                    kept.parent.mkdir(parents=True, exist_ok=True)
+                    tmp = kept.with_suffix(".tmp.npz")
+                    np.savez_compressed(tmp, whole=np.array(M, np.float32), class_a=np.array(A_mc, np.float32))
+                    tmp.replace(kept)
             t1 = time.perf_counter()
             kw = dict(width=W, height=H, wavelengths_nm=wl, layers=("object_id",), forward_cutoff_deg=a.cutoff)
             an = render_preview(scene, multiple=False, **kw)

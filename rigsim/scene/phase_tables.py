@@ -130,6 +130,19 @@ class PhaseTables:
                                    weights=w / np.maximum(w.sum(axis=1, keepdims=True), 1e-300),
                                    name=f"{self.name} without < {np.degrees(cutoff_rad):g} deg"), Fk
 
+    def forward_only(self, cutoff_rad: float) -> tuple["PhaseTables", np.ndarray]:
+        """The tables of the scatterings by less than ``cutoff_rad`` alone (what :meth:`without_forward` drops):
+        each component's :meth:`forward_cells`, renormalised (a component with no mass there keeps its table,
+        at weight 0), the weight table scaled by ``F_k`` and renormalised; and the (K,) ``F_k``."""
+        cone = self.forward_cells(cutoff_rad)
+        Fk = self.forward_fraction(cutoff_rad)
+        has = Fk > 0
+        masses = np.where(has[:, None], np.where(cone[None, :], self.masses, 0.0) / np.where(has, Fk, 1.0)[:, None],
+                          self.masses)
+        w = self.weights * Fk[None, :]
+        return dataclasses.replace(self, masses=masses, weights=w / np.maximum(w.sum(axis=1, keepdims=True), 1e-300),
+                                   name=f"{self.name} below {np.degrees(cutoff_rad):g} deg"), Fk
+
     def forward_cells(self, cutoff_rad: float) -> np.ndarray:
         """Mask of the cells that lie wholly below the angle ``cutoff_rad``."""
         return self.grid.psi_edges[1:] <= cutoff_rad * (1 + 1e-12)
