@@ -6,7 +6,7 @@ and class B, the rest, estimated by the photon tracer of :mod:`rigsim.preview.mu
 labels each of its own paths the same way (``rigsim_vol``'s ``class_split_deg``: the turns at the water
 vertices, the one towards the light included; a surface makes a path class B) and returns class A as an
 AOV beside the image, so Monte Carlo gives both shares unbiased.  This prints, for the open water of each
-case (the pixels that see no target), per colour group:
+case (the pixels that see no target; ``--region target``: the target's pixels), per colour group:
 
 * the Monte Carlo class-A share of the veil;
 * analytic class A / Monte Carlo class A;
@@ -146,6 +146,10 @@ def main(argv=None):
     ap.add_argument("--truncated", action="store_true",
                     help="the waters without their scatterings below ψ_c (truncated_water): the fast engine's own "
                          "transport, to tell its estimators' error from that of its small-angle approximations")
+    ap.add_argument("--region", choices=("open", "target"), default="open",
+                    help="the pixels compared: the open water (no target) or the target's (all its pieces; there only "
+                         "the whole image compares: the renderer labels a target's reflected light class B, the "
+                         "analytic model computes its direct part)")
     ap.add_argument("--cache", default="", help="a directory where each case's Monte Carlo renders are kept "
                     "(and read back by a later run with the same case, size, renders and spp)")
     a = ap.parse_args(argv)
@@ -175,7 +179,8 @@ def main(argv=None):
     lo = centre - bw / 2
     groups = colour_groups(wl)
     print(f"rig {a.rig}, target {a.target}, {W}x{H}, psi_c {a.cutoff:g} deg; Monte Carlo {a.renders} x {a.spp} spp, "
-          f"fast engine {a.seeds} seeds; open water; ratios +- combined relative SE")
+          f"fast engine {a.seeds} seeds; {'open water' if a.region == 'open' else 'the target'}; ratios +- combined "
+          f"relative SE")
     print(f"{'water':>16s} {'m':>4s} {'group':>6s} {'MC A share':>10s} {'analytic A/MC A':>16s} {'engine B/MC B':>14s} "
           f"{'whole/MC':>9s}  (SE MC / engine)")
     for water in a.waters.split(","):
@@ -184,7 +189,12 @@ def main(argv=None):
             wat = truncated_water(preset(water), a.cutoff) if a.truncated else preset(water)
             scene = (Scene(rig=rig, water=wat, targets=()) if a.target == "none"
                      else build_scene(rig, wat, a.target, dist))
-            strobes = [li for li in scene.lights if li.kind == "strobe"]
+            # the rig's strobes (the fast engine's flash layer), or its continuous lights where it has no strobes
+            # (its radiance: these scenes have no daylight)
+            strobes = [li for li in scene.lights if li.kind == "strobe"] or list(scene.lights)
+
+            def light_of(im):
+                return np.asarray(im.layers["flash"] if "flash" in im.layers else im.radiance, float)
             key = (f"{a.rig}_{water}{'-truncated' if a.truncated else ''}_{dist:g}m_{a.target}_{W}x{H}_"
                    f"{a.renders}x{a.spp}_psi{a.cutoff:g}.npz")
             kept = Path(a.cache) / key if a.cache else None
@@ -209,23 +219,29 @@ def main(argv=None):
             kw = dict(width=W, height=H, wavelengths_nm=wl, layers=("object_id",), forward_cutoff_deg=a.cutoff)
             an = render_preview(scene, multiple=False, **kw)
             oid = np.asarray(an.layers["object_id"])
-            ow = oid == 0
-            A = np.asarray(an.layers["flash"], float)[ow].mean(0)
+            ow = oid == 0 if a.region == "open" else oid > 0
+            if not ow.any():
+                ap.error(f"--region {a.region}: no such pixels in {water} at {dist:g} m")
+            A = light_of(an)[ow].mean(0)
             M = np.array(M)[:, ow].mean(1)
             A_mc = np.array(A_mc)[:, ow].mean(1)
             B_mc = M - A_mc
             for photons in photon_counts:
-                E = np.array([np.asarray(render_preview(scene, multiple=True, seed=s, photons=photons, **kw)
-                                         .layers["flash"], float)[ow].mean(0) for s in range(a.seeds)])
+                E = np.array([light_of(render_preview(scene, multiple=True, seed=s, photons=photons, **kw))[ow].mean(0)
+                              for s in range(a.seeds)])
                 if len(photon_counts) > 1:
                     print(f"{'':>16s} fast engine with {photons} photons")
                 for name, idx in groups.items():
                     m, am, bm, e = (x[:, idx].mean(1) for x in (M, A_mc, B_mc, E))
                     a_an = A[idx].mean()
                     eb = e - a_an
-                    print(f"{water:>16s} {dist:4g} {name:>6s} {am.mean() / m.mean():10.3f} "
-                          f"{a_an / am.mean():9.3f} ± {_se(am):.3f} "
-                          f"{eb.mean() / bm.mean():7.3f} ± {np.hypot(_se(bm), _se(eb)):.3f} "
+                    if a.region == "open":
+                        parts = (f"{am.mean() / m.mean():10.3f} {a_an / am.mean():9.3f} ± {_se(am):.3f} "
+                                 f"{eb.mean() / bm.mean():7.3f} ± {np.hypot(_se(bm), _se(eb)):.3f}")
+                    else:  # the renderer labels light reflected by a target class B, the analytic model computes
+                        # the target's direct light: on a target only the whole compares
+                        parts = f"{'-':>10s} {'-':>17s} {'-':>15s}"
+                    print(f"{water:>16s} {dist:4g} {name:>6s} {parts} "
                           f"{e.mean() / m.mean():6.3f} ± {np.hypot(_se(m), _se(e)):.3f}  ({_se(m):.3f} / {_se(e):.3f})")
             print(f"{'':>16s} ({t1 - t0:.0f} s Monte Carlo, {time.perf_counter() - t1:.0f} s fast engine)", flush=True)
 
