@@ -34,8 +34,8 @@ through the water by a camera pass; kept beside the renders), where the renders'
 heavy-tailed (Jerlov III, 5C-9C); the disk and daylight cases stay renders.
 
     python benchmarks/bench_fast_engine_agreement.py --waters jerlov-7C,jerlov-9C --distances 1,3 \
-        --rigs twin-strobes-edge-lighting --depths '' --spp 32 --seeds 4 --max-seeds 8 --reference hybrid \
-        --hybrid-photons 2000000 --hybrid-spp 128 --out out/agree-hybrid
+        --rigs twin-strobes-edge-lighting --depths '' --spp 32 --seeds 4 --max-seeds 32 --hybrid-max-seeds 8 \
+        --reference hybrid --hybrid-photons 2000000 --hybrid-spp 128 --out out/agree-hybrid
 """
 
 from __future__ import annotations
@@ -90,7 +90,7 @@ hybrid_photons = {hybrid_photons}
 hybrid_spp = {hybrid_spp}
 hybrid_veil_renders = {hybrid_veil}
 hybrid_veil_sigma_px = {hybrid_sigma}
-"""
+{hybrid_max}"""
 
 
 def _list(text: str) -> list[str]:
@@ -149,6 +149,8 @@ def main(argv=None) -> int:
     ap.add_argument("--hybrid-veil-sigma-px", type=float, default=4.0,
                     help="kernel (px) of the local quadratic that pools each hybrid image's veil over the chart "
                          "(rigsim.render.hybrid.smooth_chart_veil; 0: each pixel's own)")
+    ap.add_argument("--hybrid-max-seeds", type=int, default=None,
+                    help="--max-seeds for the hybrid cases alone (the disk and daylight cases keep --max-seeds)")
     ap.add_argument("--publish", action="store_true",
                     help=f"write the per-water summary to {PUBLISHED.relative_to(ROOT)} (the rig designer shows it)")
     args = ap.parse_args(argv)
@@ -179,7 +181,9 @@ def main(argv=None) -> int:
                                   ms=args.multiple_scattering, reference=args.reference,
                                   hybrid_photons=args.hybrid_photons, hybrid_spp=args.hybrid_spp,
                                   hybrid_veil=args.hybrid_veil_renders,
-                                  hybrid_sigma=args.hybrid_veil_sigma_px).replace("'", '"'))
+                                  hybrid_sigma=args.hybrid_veil_sigma_px,
+                                  hybrid_max=(f"hybrid_max_seeds = {args.hybrid_max_seeds}\n"
+                                              if args.hybrid_max_seeds is not None else "")).replace("'", '"'))
         try:
             spec = load_study(f)
         except ConfigError as e:  # a flag out of range: the study file's field names it (e.g. check.hybrid_photons)
@@ -207,7 +211,9 @@ def main(argv=None) -> int:
         depths = ", ".join(f"{float(d):g}" for d in _list(args.depths))
         ms = "" if args.multiple_scattering == "off" else f", multiple scattering {args.multiple_scattering}"
         hyb = (f", charts lit by the rig's lights referenced by the hybrid estimate ({args.hybrid_photons} photons, "
-               f"{args.hybrid_spp} spp per band, {args.hybrid_veil_renders} renders' veil per image, pooled over the "
+               f"{args.hybrid_spp} spp per band, "
+               f"{'' if args.hybrid_max_seeds is None else f'up to {args.hybrid_max_seeds} images, '}"
+               f"{args.hybrid_veil_renders} renders' veil per image, pooled over the "
                f"chart by a {args.hybrid_veil_sigma_px:g}-px local quadratic)"
                if args.reference == "hybrid" else "")
         settings = f"{w}x{h} px{ms}, Monte Carlo {args.seeds}-{max(args.seeds, args.max_seeds)} x {args.spp} spp{hyb}, " + "; ".join(

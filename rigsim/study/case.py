@@ -267,7 +267,7 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
         se = np.array([relative_se(r.reference, r.reference_se) for r in regions], float)
         se = se[np.isfinite(se)]
         pilot = {"seeds": ck.seeds, "se_p90": float(np.percentile(se, 90)) if se.size else float("nan")}
-        n = ck.renders_for(pilot["se_p90"])
+        n = ck.renders_for(pilot["se_p90"], hybrid=hybrid)
         if n > len(refs):
             refs += [reference(i) for i in range(len(refs), n)]
             regions, metrics = compare_renders(fast, refs, target_kind, fast_batches=fast_batches)

@@ -46,6 +46,7 @@
     hybrid_veil_renders = 4 # renders whose veil (backscatter layer) each hybrid image averages
     hybrid_veil_sigma_px = 4.0  # the veil over the chart pooled by a local quadratic, Gaussian kernel of this
                             # many pixels (rigsim.render.hybrid.smooth_chart_veil); 0: each pixel's own
+    hybrid_max_seeds = 8    # optional: max_seeds for the hybrid cases alone (the others keep max_seeds)
 
     [sweep]
     extend_visibility = true  # default: where a target stays visible over the whole sweep, the study
@@ -151,10 +152,17 @@ class CheckSettings:
     #: neighbouring ones its noise fell 1.6–1.9× in Jerlov 7C; its bias on the fast engine's veil ≤ 0.6 % of a
     #: patch); 0 keeps each pixel's own.
     hybrid_veil_sigma_px: float = 4.0
+    #: The cap of ``max_seeds`` for the hybrid cases alone (a hybrid image costs a light trace and a camera pass
+    #: besides its renders); the other cases keep ``max_seeds``.  None: ``max_seeds`` for all.  (With one cap
+    #: for all, 8, an edge-lit Jerlov 9C black disk's reference fell from 32 renders to 4-8 and its open water's
+    #: -9.0 % read as within noise.)
+    hybrid_max_seeds: int | None = None
 
-    def renders_for(self, pilot_se_p90: float) -> int:
-        """Renders in all for a pilot whose regions' relative SE has the 90th percentile ``pilot_se_p90``."""
-        top = max(self.seeds, self.max_seeds or self.seeds)
+    def renders_for(self, pilot_se_p90: float, hybrid: bool = False) -> int:
+        """Renders in all for a pilot whose regions' relative SE has the 90th percentile ``pilot_se_p90``
+        (``hybrid``: a case referenced by hybrid images, capped by ``hybrid_max_seeds`` where it is set)."""
+        cap = self.hybrid_max_seeds if hybrid and self.hybrid_max_seeds is not None else self.max_seeds
+        top = max(self.seeds, cap or self.seeds)
         if not math.isfinite(pilot_se_p90) or top == self.seeds:
             return top
         return int(min(top, max(self.seeds, math.ceil(self.seeds * (pilot_se_p90 / self.target_se) ** 2))))
@@ -425,12 +433,14 @@ class CheckTable(FileModel):
     hybrid_spp: Annotated[Int, Field(ge=1, le=65_536)] = 64
     hybrid_veil_renders: Annotated[Int, Field(ge=1, le=256)] = 4
     hybrid_veil_sigma_px: Annotated[Real, Field(ge=0.0, le=64.0)] = 4.0
+    hybrid_max_seeds: Annotated[Int, Field(ge=2, le=1024)] | None = None
 
     @model_validator(mode="after")
     def _two_stages(self) -> "CheckTable":
-        if self.max_seeds is not None and self.max_seeds < self.seeds:
-            raise invalid(f"max_seeds {self.max_seeds} is below seeds {self.seeds}", field="max_seeds",
-                          allowed=f">= seeds ({self.seeds})")
+        for name in ("max_seeds", "hybrid_max_seeds"):
+            v = getattr(self, name)
+            if v is not None and v < self.seeds:
+                raise invalid(f"{name} {v} is below seeds {self.seeds}", field=name, allowed=f">= seeds ({self.seeds})")
         return self
 
     def settings(self) -> CheckSettings:
@@ -439,7 +449,7 @@ class CheckTable(FileModel):
                              integrator=self.integrator, max_seeds=self.max_seeds, target_se=self.target_se,
                              reference=self.reference, hybrid_photons=self.hybrid_photons,
                              hybrid_spp=self.hybrid_spp, hybrid_veil_renders=self.hybrid_veil_renders,
-                             hybrid_veil_sigma_px=self.hybrid_veil_sigma_px)
+                             hybrid_veil_sigma_px=self.hybrid_veil_sigma_px, hybrid_max_seeds=self.hybrid_max_seeds)
 
 
 class CaptureTable(FileModel):

@@ -98,6 +98,26 @@ def test_two_stage_checks_take_more_renders_only_where_the_first_are_too_noisy(t
         assert rec["seeds"] == want and rec["pilot"]["seeds"] == 2 and rec["pilot"]["se_p90"] > 0
 
 
+def test_hybrid_max_seeds_caps_the_hybrid_cases_alone(tmp_path):
+    """[check] hybrid_max_seeds: the cases referenced by hybrid images take at most that many, every other case
+    keeps max_seeds (a black disk in a hybrid study is referenced by renders: with a target SE it cannot reach it
+    takes all max_seeds, not the hybrid cap); below seeds it is refused with the field named."""
+    from rigsim.study.case import compute_check
+    from rigsim.study.spec import CheckSettings
+
+    ck = CheckSettings(seeds=4, max_seeds=32, target_se=0.015, hybrid_max_seeds=8)
+    assert [ck.renders_for(s) for s in (0.015, 0.02, 0.2)] == [4, 8, 32]
+    assert [ck.renders_for(s, hybrid=True) for s in (0.015, 0.02, 0.2)] == [4, 8, 8]
+    assert CheckSettings(seeds=4, max_seeds=32).renders_for(0.2, hybrid=True) == 32  # no cap: max_seeds for all
+    with pytest.raises(ConfigError, match=r"check.hybrid_max_seeds: hybrid_max_seeds 2 is below seeds 4"):
+        load_study(fast_study(tmp_path, extra="\n[check]\nseeds = 4\nmax_seeds = 8\nhybrid_max_seeds = 2\n"))
+    spec = load_study(fast_study(tmp_path, waters='["coastal"]', distances="[1.5]", render_extra="check_with_mitsuba = 1",
+                                 extra='\n[check]\nwidth = 24\nheight = 16\nspp = 4\nseeds = 2\nmax_seeds = 5\n'
+                                       'target_se = 1e-4\nreference = "hybrid"\nhybrid_max_seeds = 2\n'))
+    rec = compute_check(spec, spec.check_cases()[0])["record"]
+    assert rec["target"] == "black-disk" and rec["reference"] == "monte-carlo" and rec["seeds"] == 5
+
+
 def test_a_checks_monte_carlo_renders_are_kept_and_only_the_missing_ones_rendered_again(tmp_path, monkeypatch):
     """With a render cache a check renders each of its Monte Carlo images once: the same check again renders
     nothing and gives the same record; asked for more renders (max_seeds) it renders only the new ones; a
