@@ -216,9 +216,11 @@ class SpectralImage:
             if a.shape[:2] != radiance.shape[:2]:
                 raise ConfigError(f"corrupt: {name} has shape {a.shape}, the image {radiance.shape[:2]}", file=f,
                                   allowed=allowed)
-            if not np.issubdtype(a.dtype, np.number) or not np.all(np.isfinite(a)) or np.any(a < 0):
+            # the particles' layers are signed (their light less the light they hide): finite is all they must be
+            signed = name.endswith("particles")
+            if not np.issubdtype(a.dtype, np.number) or not np.all(np.isfinite(a)) or (not signed and np.any(a < 0)):
                 raise ConfigError(f"corrupt: {name} has values that are not finite or negative", file=f,
-                                  allowed="radiance >= 0 everywhere")
+                                  allowed="radiance >= 0 everywhere (the particles' layers: finite)")
         if not (np.all(np.isfinite(wl)) and np.all(np.diff(wl) > 0) and np.all(bw > 0)):
             raise ConfigError("corrupt: wavelengths must increase and bandwidths be positive", file=f,
                               allowed=allowed)

@@ -99,3 +99,23 @@ def test_malformed_records_are_one_line_errors(tmp_path):
     (d / "scene.json").write_bytes(b"\x00\xff garbage")
     with pytest.raises(ConfigError, match="scene.json"):
         SpectralImage.load(d)
+
+
+def test_a_kept_render_with_marine_snow_loads_back_with_its_signed_particle_layers(tmp_path):
+    """The particles' layers are their light less the light they hide: negative where they hide more (a Monte Carlo
+    difference of two renders is negative in places).  Kept renders with them load back (until 2026-12-06 they were
+    refused as corrupt, so every resumed study with marine snow rendered its checks again); a negative radiance, or a
+    particles layer that is not finite, is still refused with one line naming the file."""
+    wl, bw = np.array([450.0, 550.0]), np.array([10.0, 10.0])
+    part = np.full((4, 6, 2), -0.1, np.float32)
+    img = SpectralImage(np.ones((4, 6, 2), np.float32), wl, bw, layers={"flash": np.ones((4, 6, 2), np.float32),
+                                                                        "flash_particles": part, "particles": part})
+    img.save(tmp_path / "ok")
+    back = SpectralImage.load(tmp_path / "ok")
+    assert np.array_equal(back.layers["flash_particles"], part) and np.array_equal(back.layers["particles"], part)
+    for name, bad in (("flash", -np.ones((4, 6, 2), np.float32)),
+                      ("flash_particles", np.full((4, 6, 2), np.nan, np.float32))):
+        d = tmp_path / name
+        dataclasses.replace(img, layers={**img.layers, name: bad}).save(d)
+        with pytest.raises(ConfigError, match=rf"spectral.npz.*corrupt: layer {name} has values"):
+            SpectralImage.load(d)
