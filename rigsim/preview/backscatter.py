@@ -19,7 +19,11 @@ function from the water's own (wavelength-dependent) phase function, and
   meets the wide-angle β not at ψ but averaged over the directions its small-angle turns gave
   it (``spread``: :meth:`rigsim.preview.forward.SmallAngle.spread_beta`, the addition theorem of
   Legendre polynomials; in Jerlov 9C after 1 m of water the turned light's β is 5–30 % higher
-  at 60–130° and 5–15 % lower near 180° than the straight light's).
+  at 60–130° and 5–15 % lower near 180° than the straight light's).  The camera's line of sight is
+  turned the same way on its ``s`` of water (``two_leg``:
+  :meth:`rigsim.preview.forward.SmallAngle.two_leg_beta`): ``T_cam β`` keeps the light that small-angle
+  scatterings bring into the line of sight, but that light left the wide-angle scattering along
+  directions spread about the line, so it met β averaged over them too.
 
 Quadrature: the integrand has a 1/r² peak where the ray passes a light and decays
 like e^{−κs}/s² far away, so it is integrated with the trapezoidal rule in
@@ -112,7 +116,8 @@ def s_nodes(s_max: float, n_nodes: int) -> tuple[np.ndarray, np.ndarray]:
 def cumulative_backscatter(origin: np.ndarray, direction: np.ndarray, s: np.ndarray, lights: list[LightTables],
                            *, bw: np.ndarray, c: np.ndarray, kappa_light: np.ndarray, kappa_cam: np.ndarray,
                            components, forward: bool, surfaces: SceneSurfaces | None = None,
-                           chunk_elems: int = 4_000_000, spread=None, shade_beyond_hit: bool = False) -> np.ndarray:
+                           chunk_elems: int = 4_000_000, spread=None, shade_beyond_hit: bool = False,
+                           two_leg=None) -> np.ndarray:
     """Cumulative backscatter ``∫₀^{s_j}`` at the nodes for each ray: (N, n_nodes, Λ).
 
     Parameters
@@ -142,6 +147,10 @@ def cumulative_backscatter(origin: np.ndarray, direction: np.ndarray, s: np.ndar
         With ``forward``: ``(cos_psi, r) → (…, Λ)`` the volume scattering function of the beam's
         forward-scattered light, whose directions have spread about the line from the light
         (:meth:`rigsim.preview.forward.SmallAngle.spread_beta`); None: ``β(ψ)`` as the unscattered light's.
+    two_leg
+        With ``forward``, instead of ``spread``: ``(cos_psi, beta, r, s) → (beta_s, delta)``, the volume
+        scattering function with the turns of both legs (:meth:`rigsim.preview.forward.SmallAngle.two_leg_beta`;
+        ``s`` the node's water path from the port).
     """
     N, M, L = len(origin), len(s), bw.shape[1]
     out = np.zeros((N, M, L))
@@ -166,7 +175,10 @@ def cumulative_backscatter(origin: np.ndarray, direction: np.ndarray, s: np.ndar
             beta = components.eval_components(cos_psi) @ bw  # (n, M, Λ)
             att = np.exp(-r[..., None] * c)
             illum = lt.beam_fn(theta)[..., None] * att
-            if forward and lt.blurred is not None:
+            if forward and lt.blurred is not None and two_leg is not None:
+                beta_s, delta = two_leg(cos_psi, beta, r, np.broadcast_to(s[None, :], r.shape))
+                illum = illum * beta_s + lt.blurred_at(theta, r) * np.exp(-r[..., None] * kappa_light) * delta
+            elif forward and lt.blurred is not None:
                 fs = lt.blurred_at(theta, r) * (np.exp(-r[..., None] * kappa_light) - att)
                 if spread is not None:
                     illum = beta * illum + spread(cos_psi, r) * fs

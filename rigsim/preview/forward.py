@@ -459,6 +459,35 @@ class SmallAngle:
         hi = flat[a1] * (1 - fx) + flat[a1 + 1] * fx
         return lo * (1 - fy) + hi * fy
 
+    def two_leg_beta(self, cos_psi: np.ndarray, beta: np.ndarray, r_m: np.ndarray, s_m: np.ndarray,
+                     bw: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The volume scattering function the quasi-single veil meets with small-angle turns on both legs:
+        ``r_m`` of water from the light, ``s_m`` on to the camera (both ``shape(cos_psi)``); ``beta``
+        (``shape(cos_psi) + (B,)``) the straight lines' ``β(ψ)``, ``bw`` as :meth:`spread_beta`'s.
+
+        The camera's line of sight is turned on its way as the light's is (reciprocity): the light that
+        reaches the pupil along it left the wide-angle scattering along a direction spread about it by
+        ``N_s`` turns (Poisson of mean ``μ_s = bF s``).  Both spreads are symmetric about their own lines,
+        so on the sphere their Legendre factors multiply (:meth:`spread_beta`): with
+        ``B̄(μ) = Σ_l (2l+1)/(4π) β_l e^{μ (p̂_l − 1)} P_l(cos ψ) = e^{−μ} β + (1 − e^{−μ}) β̄(μ)`` (any number of
+        turns, ``β̄`` :meth:`spread_beta`) and ``μ_r = bF r``, returns
+
+        * ``beta_s = B̄(μ_s)``: what the light not turned on the light leg (``f e^{−c r}``) meets;
+        * ``delta = B̄(μ_r + μ_s) − e^{−μ_r} B̄(μ_s)``: times ``f̃ e^{−(c − bF) r}``, the light turned on the
+          light leg (``delta / (1 − e^{−μ_r})`` is the mean it meets; this form has no quotient).
+
+        With ``s_m = 0`` they are ``β`` and ``(1 − e^{−μ_r}) β̄(μ_r)``, the light leg's spread alone.
+        """
+        bf = self.b * self.F
+        r_m = np.asarray(r_m, float)
+        s_m = np.asarray(s_m, float)
+        e_r = np.exp(-r_m[..., None] * bf)
+        e_s = np.exp(-s_m[..., None] * bf)
+        beta_s = e_s * beta + (1.0 - e_s) * self.spread_beta(cos_psi, s_m, bw)
+        e_rs = e_r * e_s
+        beta_rs = e_rs * beta + (1.0 - e_rs) * self.spread_beta(cos_psi, r_m + s_m, bw)
+        return beta_s, beta_rs - e_r * beta_s
+
     # -- light leg ---------------------------------------------------------------------
     def blurred_beam(self, beam: BeamPattern, r_nodes: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """The beam pattern convolved with the kernel at distances ``r_nodes``.

@@ -193,6 +193,16 @@ MS_CUTOFF_DEG = 30.0
 #: 3 m −5.8 ± 0.4 → −3.7 ± 0.4 % (blue), the clear waters unchanged, the strobe cells beyond tolerance 4 → 2 of
 #: 2 719 (both chart patches on heavy-tailed references).
 SPREAD_PHASE = True
+#: With :data:`SPREAD_PHASE`, the camera leg's small-angle turns too (the line of sight's directions spread on its
+#: way back, :meth:`rigsim.preview.forward.SmallAngle.two_leg_beta`); False: β seen straight along the line of sight
+#: (before 2026-12-06).  Measured (2026-12-06, ``benchmarks/bench_fast_engine_classes.py --size 48x32 --renders 48
+#: --seeds 6 --photons 100000``, the same Monte Carlo renders, open water; analytic class A / Monte Carlo's, blue /
+#: green / red, without → with): ``twin-strobes-45-wide`` Jerlov 9C at 1 m 0.984 / 0.990 / 0.992 → 1.002 / 1.003 /
+#: 1.001, at 3 m 0.984 / 0.988 / 0.990 → 1.001 / 1.001 / 0.999, 3C at 1 m 0.996 / 0.998 / 0.999 → 1.000 / 0.999 /
+#: 1.001 (the whole veil 9C at 1 m 0.976 / 0.979 / 0.988 → 0.988 / 0.988 / 0.994); ``twin-strobes-edge-lighting``
+#: at 3 m 9C 0.976 / 0.978 / 0.983 → 0.993 / 0.991 / 0.992, 7C 0.983 / 0.982 / 0.985 → 0.996 / 0.991 / 0.991, 5C
+#: 0.985 / 0.987 / 0.989 → 0.990 / 0.989 / 0.991; coastal, Jerlov III unchanged within 0.2 %.
+SPREAD_CAMERA_LEG = True
 #: The camera leg's small-angle blur with the housing's part of each line of sight left out (no water inside the
 #: port; the kernel's optical path the water's, its angles scaled by the water's share of the distance to the
 #: rays' viewpoint: :meth:`rigsim.preview.forward.SmallAngle.blur_plan`'s ``port_m``, ``viewpoint_m``); False:
@@ -1243,18 +1253,22 @@ def _backscatter_grid(scene, surf, tables, water, forward, cam, width, height, w
     o, d = o.reshape(-1, 3), d.reshape(-1, 3)
     chunks = np.array_split(np.arange(len(o)), max(1, min(len(o) // 64, 8)))
     cum = np.empty((len(o), len(s), len(water.c)), np.float32)
-    spread = None
+    spread = two_leg = None
     if forward and SPREAD_PHASE and water.small_angle is not None:
         sa, bw = water.small_angle, water.bw
 
         def spread(cos_psi, r):
             return sa.spread_beta(cos_psi, r, bw)
 
+        if SPREAD_CAMERA_LEG:
+            def two_leg(cos_psi, beta, r, s_):
+                return sa.two_leg_beta(cos_psi, beta, r, s_, bw)
+
     def chunk(ix):
         cum[ix] = cumulative_backscatter(o[ix], d[ix], s, tables, bw=water.bw, c=water.c, kappa_light=kappa_light,
                                          kappa_cam=kappa_cam, components=water.components, forward=forward,
                                          surfaces=surf if shadows else None, spread=spread,
-                                         shade_beyond_hit=not VEIL_SHADOWS)
+                                         shade_beyond_hit=not VEIL_SHADOWS, two_leg=two_leg)
 
     run(pmap, chunk, chunks)
     return cum, (len(grow), len(gcol)), gcol, grow, s

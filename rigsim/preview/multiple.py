@@ -83,7 +83,11 @@ engine; fractions of Monte Carlo's veil):
   of its traced paths at 450 nm, ``benchmarks/bench_fast_engine_split.py``), most in the image centre
   (0.92–0.95 of the traced class A there), from the water within 0.4 m of the port, lit by the edges
   of the strobes' beams.  With a chart at 1 m the open water around it reads 0.945 / 0.968 / 0.976
-  (analytic A 2 % of the veil below its traced paths; class B ±1.8 %).
+  (analytic A 2 % of the veil below its traced paths; class B ±1.8 %).  Since then (2026-12-06) the
+  analytic class A has the turns of both legs (:data:`rigsim.preview.model.SPREAD_PHASE`,
+  :data:`~rigsim.preview.model.SPREAD_CAMERA_LEG`): against Monte Carlo's class-A light (renders split by
+  class, ``benchmarks/bench_fast_engine_classes.py``) 1.002 / 1.003 / 1.001 here at 1 m, and the whole veil
+  0.988 / 0.988 / 0.994.
 * ψ_c moves the answer although it should not: 20° / 25° / 30° / 45° give −2.9 / −3.4 / −6.0 / −9.2 %
   (blue, the chart's open water in 9C) and in Jerlov 5C 20° overshoots (+3.3 % red against −0.2 % at
   30°): no single cut-off is right in both, so ψ_c stays 30°.
