@@ -108,6 +108,21 @@ def _fraction(text: str) -> float:
     return x
 
 
+
+def _engine_id() -> str:
+    """The checkout's commit ("commit 692f13b", "-dirty" if ``rigsim/`` differs from it); "" without git."""
+    import subprocess
+
+    try:
+        head = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
+                              text=True, timeout=30, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "-C", str(ROOT), "status", "--porcelain", "--", "rigsim"], capture_output=True,
+                               text=True, timeout=30, check=True).stdout.strip()
+    except (OSError, subprocess.SubprocessError):
+        return ""
+    return f"commit {head}{'-dirty' if dirty else ''}" if head else ""
+
+
 def main(argv=None) -> int:
     from rigsim.water import JERLOV_TYPES, ORIGINAL_PRESETS
 
@@ -219,7 +234,7 @@ def main(argv=None) -> int:
         settings = f"{w}x{h} px{ms}, Monte Carlo {args.seeds}-{max(args.seeds, args.max_seeds)} x {args.spp} spp{hyb}, " + "; ".join(
             x for x in (f"rigs {', '.join(rigs)}" if rigs else "",
                         f"daylight: ambient-only at {depths} m, sun at 30 deg" if depths else "") if x)
-        write_published(rows, PUBLISHED, settings=settings)
+        write_published(rows, PUBLISHED, settings=settings, engine=_engine_id())
         print(f"\nper-water summary: {PUBLISHED}")
     return 0
 

@@ -383,6 +383,7 @@ class PublishedAgreement:
     measured: str
     settings: str
     rig: str
+    engine: str = ""  #: the fast engine measured ("commit 692f13b", "-dirty" if it differed); "" in rows before 2026-12-06
 
     def sentence(self, rig: str | None = None) -> str:
         """One line for a user: how far the fast engine's picture of this water is from Monte Carlo.
@@ -396,7 +397,8 @@ class PublishedAgreement:
         other = f" (not checked with {rig}: these numbers are the {self.rig} rig's)" if rig and rig != self.rig else ""
         return (f"fast engine vs Monte Carlo in {self.water} ({self.lighting}, {self.rig}, {self.cases} cases at "
                 f"{self.distances_m} m): worst region {self.worst_deviation:+.1%} ± {self.worst_se:.1%} "
-                f"({self.worst_where}){tail} — measured {self.measured}{other}")
+                f"({self.worst_where}){tail} — measured {self.measured}"
+                f"{f' (fast engine of {self.engine})' if self.engine else ''}{other}")
 
 
 #: The published summary (in ``data/``): written by ``benchmarks/bench_fast_engine_agreement.py --publish``.
@@ -433,6 +435,9 @@ def published_agreement(water_name: str, lighting: str = "strobes", rig: str | N
     if "rig" not in t.columns:  # a table of the layout before 2026-12-05 (summed over rigs): not trusted
         return None
     cols = t.columns
+    engines = cols.get("engine")
+    if engines is None or engines.dtype.kind != "U":  # no column, or only blank cells (read as NaN)
+        engines = [""] * len(cols["water"])
     found = []
     for i in range(len(cols["water"])):
         if cols["water"][i] == water_name and cols["lighting"][i] == lighting:
@@ -442,17 +447,19 @@ def published_agreement(water_name: str, lighting: str = "strobes", rig: str | N
                 worst_se=float(cols["worst_se"][i]), worst_where=str(cols["worst_where"][i]),
                 tolerance=float(cols["tolerance"][i]), beyond=int(cols["beyond"][i]), cells=int(cols["cells"][i]),
                 measured=str(cols["measured"][i]), settings=str(cols["settings"][i]),
-                rig=str(cols["rig"][i])))
+                rig=str(cols["rig"][i]), engine=str(engines[i])))
     same = [p for p in found if rig and p.rig == rig]  # the rig's rows (one per distance set): the worst of them
     return max(same or found, key=lambda p: abs(p.worst_deviation), default=None)
 
 
-def write_published(rows: list[dict], path, *, settings: str) -> None:
+def write_published(rows: list[dict], path, *, settings: str, engine: str = "") -> None:
     """Write the per-lighting, per-water, per-rig, per-distance-set summary of agreement rows (``agreement.csv``
     of studies, plus a ``lighting`` column) to ``path`` (atomically), keeping the other waters, rigs and distance
     sets already there — a run at 0.5 and 6 m adds rows beside the 1 and 3 m ones; a row whose distances are all
     in a new row's is replaced by it (rows of the older tables without a ``rig`` column, which summed over rigs,
-    are dropped)."""
+    are dropped).  ``engine``: which fast engine was measured (the benchmark writes the checkout's commit,
+    ``"commit 692f13b"``, with ``-dirty`` if the package differed from it), so a reader sees which rows a later
+    change of the engine has not re-made."""
     import csv
     import datetime
     import io
@@ -486,9 +493,9 @@ def write_published(rows: list[dict], path, *, settings: str) -> None:
             "worst_where": f"{w['region'].replace('patch:', '')}, {w['group']}, {w['target']} at "
                            f"{float(w['distance_m']):g} m",
             "tolerance": w["tolerance"], "beyond": sum(r["verdict"] == "disagrees" for r in rs), "cells": len(rs),
-            "measured": today, "settings": settings}
+            "measured": today, "engine": engine, "settings": settings}
     cols = ["lighting", "water", "rig", "cases", "distances_m", "worst_deviation", "worst_se", "worst_where", "tolerance",
-            "beyond", "cells", "measured", "settings"]
+            "beyond", "cells", "measured", "engine", "settings"]
     buf = io.StringIO()
     buf.write("# The fast engine against Monte Carlo, per water and rig: benchmarks/bench_fast_engine_agreement.py "
               "--publish\n"

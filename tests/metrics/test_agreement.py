@@ -215,6 +215,29 @@ def test_the_published_table_keeps_each_rig_apart_and_a_rig_it_did_not_check_get
     assert published_agreement("jerlov-9C", rig="wide").distances_m == "1, 3, 6"
 
 
+def test_the_published_table_says_which_fast_engine_each_row_measured(tmp_path, monkeypatch):
+    """A row written with ``engine`` reads it back as written (the benchmark's "commit <hash>": text even where
+    the hash is all digits, its leading zero kept) and its sentence names it; rows written before the column
+    existed, or without an engine, read ""."""
+    import rigsim.data
+    from rigsim.metrics.agreement import PUBLISHED_TABLE, published_agreement, write_published
+
+    monkeypatch.setattr(rigsim.data, "DATA_DIR", tmp_path)
+    path = tmp_path / PUBLISHED_TABLE
+    path.parent.mkdir(parents=True)
+    # a row of the layout before the column
+    path.write_text("lighting,water,rig,cases,distances_m,worst_deviation,worst_se,worst_where,tolerance,beyond,cells,"
+                    "measured,settings\nstrobes,coastal,wide,4,\"1, 3\",-0.02,0.01,old,0.05,0,162,2026-12-05,old\n")
+    assert published_agreement("coastal").engine == ""
+    write_published([_row("wide", "jerlov-9C", "disk", 0.02)], path, settings="test")  # no engine: only blanks
+    assert published_agreement("jerlov-9C").engine == "" and published_agreement("coastal").engine == ""
+    assert "fast engine of" not in published_agreement("jerlov-9C").sentence("wide")
+    write_published([_row("edge", "jerlov-7C", "disk", 0.01)], path, settings="test", engine="commit 0123456")
+    new = published_agreement("jerlov-7C", rig="edge")
+    assert new.engine == "commit 0123456" and "(fast engine of commit 0123456)" in new.sentence("edge")
+    assert published_agreement("coastal").engine == "" and published_agreement("jerlov-9C").worst_deviation == 0.02
+
+
 def test_the_published_line_says_when_the_reference_is_too_noisy_to_show_agreement():
     import dataclasses
 
