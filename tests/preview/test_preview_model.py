@@ -358,6 +358,20 @@ def test_edge_pixels_box_mean_equals_full_supersampling():
     assert np.max(np.abs(centre - full)) > 0.2 * np.max(full)  # the rim aliases
 
 
+def _jerlov_9c_at_450():
+    """Jerlov 9C at 450 nm with ψ_c = 30°: ``(tables, ψ_c rad, b (1,), SmallAngle, bw (K, 1), F, β per cell,
+    β by more than ψ_c per cell)`` (β in 1/(m sr))."""
+    water = preset("jerlov-9C")
+    wl = np.array([450.0])
+    comps = phase_tables(water.phase, water.wavelength_range_nm)
+    cut = np.radians(30.0)
+    w = comps.weights_at(wl)
+    b = water.b_per_m(wl)
+    sa = SmallAngle(comps, cut, b, w)
+    full = (comps.densities.T @ w[0]) * b[0]  # (cells,) phase function (1/sr) times b
+    return comps, cut, b, sa, (b[:, None] * w).T, float(sa.F[0]), full, np.where(comps.forward_cells(cut), 0.0, full)
+
+
 def _turned(d: np.ndarray, N: np.ndarray, comps, wavelength_nm: float, cutoff_rad: float, rng) -> np.ndarray:
     """Unit directions ``d`` (n, 3) each turned ``N`` times about a random axis, each turn drawn from the phase
     function's cells below ψ_c: the component by its share ``w_k F_k`` of the scattering by less than ψ_c, the
@@ -396,18 +410,7 @@ def test_the_spread_of_forward_scattered_light_matches_its_turned_directions():
     line (where the quasi-single veil is seen from).  Z-tests of the drawn means; and the spread function
     integrates to b (1 − F) over the sphere (a rotation average keeps the integral)."""
     rng = np.random.default_rng(7)
-    water = preset("jerlov-9C")
-    wl = np.array([450.0])
-    comps = phase_tables(water.phase, water.wavelength_range_nm)
-    cut = np.radians(30.0)
-    w = comps.weights_at(wl)
-    b = water.b_per_m(wl)
-    sa = SmallAngle(comps, cut, b, w)
-    bw = (b[:, None] * w).T  # (K, B)
-    F = float(sa.F[0])
-    fwd = comps.forward_cells(cut)
-    dens = comps.densities.T @ w[0]  # (cells,) phase function (1/sr)
-    wide = np.where(fwd, 0.0, dens) * b[0]  # β by more than ψ_c
+    comps, cut, b, sa, bw, F, _, wide = _jerlov_9c_at_450()
     psi = np.linspace(0.0, np.pi, 4001)
     for r in (0.3, 1.0):
         total = 2 * np.pi * np.trapezoid(sa.spread_beta(np.cos(psi), np.full(psi.shape, r), bw)[:, 0] * np.sin(psi), psi)
@@ -440,19 +443,7 @@ def test_the_turns_of_both_legs_give_the_veil_the_phase_function_of_their_drawn_
     450 nm, 60–175°; ``beta_s`` is the mean over N_r = 0, ``delta / (1 − e^{−μ_r})`` over N_r ≥ 1.  Z-tests
     of the drawn means; and the camera leg's turns matter there (β seen straight is off by more)."""
     rng = np.random.default_rng(11)
-    water = preset("jerlov-9C")
-    wl = np.array([450.0])
-    comps = phase_tables(water.phase, water.wavelength_range_nm)
-    cut = np.radians(30.0)
-    w = comps.weights_at(wl)
-    b = water.b_per_m(wl)
-    sa = SmallAngle(comps, cut, b, w)
-    bw = (b[:, None] * w).T  # (K, B)
-    F = float(sa.F[0])
-    fwd = comps.forward_cells(cut)
-    dens = comps.densities.T @ w[0]  # (cells,) phase function (1/sr)
-    full = dens * b[0]
-    wide = np.where(fwd, 0.0, full)
+    comps, cut, b, sa, bw, F, full, wide = _jerlov_9c_at_450()
     n = 100_000
     for r, s in ((0.5, 0.3), (1.0, 1.0)):
         mu_r, mu_s = b[0] * F * r, b[0] * F * s
