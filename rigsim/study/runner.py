@@ -18,7 +18,11 @@ Layout of a study folder::
     timings.csv                wall time per case (kept out of results.csv, which is reproducible)
 
 Re-running the same study into the same folder skips finished cases (a case's id hashes
-all of its inputs, so changing the study re-runs what changed).
+all of its inputs, so changing the study re-runs what changed).  A case or check counts as finished
+only if the same code computed it: each record carries :func:`rigsim.code_version.code_version`
+(``"code"``), and those of other code (an updated rigsim, an older record without it) are computed
+again, not mixed into the tables (their Monte Carlo renders are kept: ``mc-renders/`` is keyed by
+the scene, so a check of new code re-renders nothing but the fast image).
 
 Visibility beyond the sweep: where a target's contrast (scene radiance or any sensor's image) is
 still above the threshold at the sweep's largest distance, the study renders that rig, water and
@@ -41,6 +45,7 @@ from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
+from rigsim.code_version import code_version
 from rigsim.fileio import (atomic_write_bytes, atomic_write_text, drop_unreadable_records, folder_lock,
                            remove_stale_temp_files)
 from rigsim.study.spec import Case, StudySpec
@@ -71,15 +76,37 @@ def _check_dir(out: Path, spec: StudySpec, case: Case) -> Path:
 
 
 def pending_cases(spec: StudySpec, out: Path) -> list[Case]:
-    """Cases of ``spec`` without a finished ``result.json`` in ``out``."""
-    return [c for c in spec.cases() if not (_case_dir(out, spec, c) / "result.json").is_file()]
+    """Cases of ``spec`` without a finished ``result.json`` of this code in ``out``."""
+    return [c for c in spec.cases() if _read_record(_case_dir(out, spec, c) / "result.json") is None]
 
 
-def _read_record(f: Path) -> dict | None:
+def _record_code(rec: dict) -> str | None:
+    """The code version a case's (``meta.code``) or a check's (``code``) record was computed by."""
+    meta = rec.get("meta")
+    return rec.get("code", meta.get("code") if isinstance(meta, dict) else None)
+
+
+def _read_record(f: Path, *, any_code: bool = False) -> dict | None:
+    """The record in ``f`` if it was computed by this code (or by any, with ``any_code``); else None."""
     try:
-        return json.loads(f.read_text()) if f.is_file() else None
+        rec = json.loads(f.read_text()) if f.is_file() else None
     except (OSError, ValueError):
         return None
+    if not isinstance(rec, dict) or (not any_code and _record_code(rec) != code_version()):
+        return None
+    return rec
+
+
+def records_of_other_code(out: Path) -> list[Path]:
+    """Finished cases' and checks' records in ``out`` that other code computed (or that predate the
+    ``code`` field): a resumed run computes them again."""
+    found = []
+    for pattern in ("cases/*/result.json", "checks/*/check.json"):
+        for f in sorted(out.glob(pattern)):
+            rec = _read_record(f, any_code=True)
+            if rec is not None and _record_code(rec) != code_version():
+                found.append(f)
+    return found
 
 
 def _largest_contrast(rows: list[dict]) -> float:
@@ -153,16 +180,18 @@ def _run_one(args: tuple[StudySpec, str, Case], out: str | None = None) -> dict:
     else:
         res = compute_case(spec, case)
     res.setdefault("meta", {})["wall_time_s"] = time.perf_counter() - t0
+    res["meta"]["code"] = code_version()  # the code that computed it (a resumed run of other code redoes it)
     if kind == "check":
         res["record"]["wall_time_s"] = res["meta"]["wall_time_s"]
+        res["record"]["code"] = res["meta"]["code"]
     return res
 
 
 def _is_done(out: Path, item: tuple[StudySpec, str, Case]) -> bool:
     spec, kind, case = item
     if kind == "check":
-        return (_check_dir(out, spec, case) / "check.json").is_file()
-    return (_case_dir(out, spec, case) / "result.json").is_file()
+        return _read_record(_check_dir(out, spec, case) / "check.json") is not None
+    return _read_record(_case_dir(out, spec, case) / "result.json") is not None
 
 
 def _store_item(out: Path, item: tuple[StudySpec, str, Case], res: dict) -> None:
@@ -211,6 +240,10 @@ def run_study(spec: StudySpec, out: str | Path, *, scheduler: str | None = None,
             log.warning("%s was damaged: computing that case again", f)
         for f in drop_unreadable_records(out, "checks/*/check.json", ("regions", "metrics")):
             log.warning("%s was damaged: computing that check again", f)
+        other = records_of_other_code(out)
+        if other:
+            log.warning("%d finished case(s) or check(s) in %s were computed by other rigsim code (not %s): "
+                        "computing them again", len(other), out, code_version())
         atomic_write_text(out / "study.json", json.dumps(spec.describe(), indent=1, default=str))
         # the Monte Carlo checks first: the longest items start while the fast cases fill the gaps
         items = [(spec, "check", c) for c in spec.check_cases()] + [(spec, "case", c) for c in spec.cases()]
@@ -233,10 +266,9 @@ def read_results(spec: StudySpec, out: Path) -> tuple[list[dict], list[dict]]:
     """Rows of all finished cases in study order (then the steps beyond the sweep), and their timings."""
     rows, timings = [], []
     for case in spec.cases() + extension_cases(spec, out)[0]:
-        f = _case_dir(out, spec, case) / "result.json"
-        if not f.is_file():
+        rec = _read_record(_case_dir(out, spec, case) / "result.json")
+        if rec is None:
             continue
-        rec = json.loads(f.read_text())
         rows.extend(rec["rows"])
         timings.append({"case_id": rec["case_id"], "wall_time_s": rec["meta"].get("wall_time_s")})
     for case in spec.check_cases():

@@ -1,5 +1,7 @@
 """Studies: validation before rendering, resume after a kill, dask equals serial, the report."""
 
+import json
+import logging
 import os
 import signal
 import subprocess
@@ -76,6 +78,46 @@ def test_interrupted_study_resumes_to_the_same_table(tmp_path):
     run_study(load_study(path), out, serial=True, progress=False, on_case_done=done.append)
     assert len(done) == 3 - finished  # finished cases were skipped
     assert (out / "results.csv").read_text() == (ref / "results.csv").read_text()
+
+
+@pytest.mark.render
+def test_a_study_resumed_by_other_code_computes_its_finished_cases_again(tmp_path, monkeypatch, caplog):
+    import rigsim.study.runner as runner
+    from rigsim.code_version import code_version
+
+    path = tiny(tmp_path, "[1.0, 2.0]")
+    spec = load_study(path)
+    out = run_study(spec, tmp_path / "s", serial=True, progress=False)
+    first = (out / "results.csv").read_text()
+    records = sorted(out.glob("cases/*/result.json"))
+    assert len(records) == 2 and all(json.loads(f.read_text())["meta"]["code"] == code_version() for f in records)
+    done = []
+    run_study(spec, out, serial=True, progress=False, on_case_done=done.append)
+    assert done == []  # the same code: nothing computed again
+    # a record from before the code was recorded counts as other code
+    rec = json.loads(records[0].read_text())
+    del rec["meta"]["code"]
+    records[0].write_text(json.dumps(rec))
+    assert runner.pending_cases(spec, out) == [c for c in spec.cases() if records[0].parent.name == spec.case_id(c)]
+    # an updated rigsim: every finished case is of other code; none of them reaches the tables meanwhile
+    monkeypatch.setattr(runner, "code_version", lambda: "0123456789ab")
+    assert runner.pending_cases(spec, out) == spec.cases()
+    assert runner.read_results(spec, out)[0] == []
+    with caplog.at_level(logging.WARNING, logger="rigsim.study.runner"):
+        run_study(spec, out, serial=True, progress=False, on_case_done=done.append)
+    assert len(done) == 2 and "2 finished case(s) or check(s)" in caplog.text and "0123456789ab" in caplog.text
+    assert all(json.loads(f.read_text())["meta"]["code"] == "0123456789ab" for f in records)
+    assert (out / "results.csv").read_text() == first  # (the same code in fact: the same numbers)
+
+
+def test_the_code_version_covers_the_computing_code_and_its_tables_not_the_presenting_code():
+    from rigsim.code_version import _files
+
+    names = {n for n, _ in _files()}
+    assert {"rigsim/water/model.py", "rigsim/preview/model.py", "rigsim/study/case.py", "rigsim/sensor/__init__.py",
+            "data/water/jerlov_iop_solonenko_mobley_2015.csv"} <= names
+    assert not [n for n in names if n.startswith(("rigsim/ui/", "rigsim/report/", "rigsim/cli/", "data/fast_engine/"))]
+    assert not [n for n in names if "__pycache__" in n]
 
 
 def test_typo_fails_before_rendering(tmp_path, monkeypatch):
