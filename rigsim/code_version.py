@@ -25,7 +25,7 @@ import functools
 import hashlib
 from pathlib import Path
 
-__all__ = ["code_version", "NOT_COMPUTING"]
+__all__ = ["code_version", "computed_here", "NOT_COMPUTING"]
 
 #: Sub-packages of ``rigsim`` left out of the hash: they present or drive results, not compute them.
 NOT_COMPUTING = ("ui", "report", "cli", "dataset", "optimise")
@@ -54,3 +54,11 @@ def code_version() -> str:
         h.update(path.read_bytes())
         h.update(b"\0")
     return h.hexdigest()[:12]
+
+
+def computed_here(record: dict) -> bool:
+    """Whether a finished item's record names this code as the one that computed it (its ``code``, or
+    ``meta.code`` for a study case); a record from before the field existed does not."""
+    meta = record.get("meta")
+    code = record.get("code", meta.get("code") if isinstance(meta, dict) else None)
+    return code == code_version()

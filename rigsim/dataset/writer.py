@@ -35,10 +35,12 @@ Layout of ``DIR`` (formats and conventions: :mod:`rigsim.dataset.formats`)::
         specks.tiff                   (marine snow only) the same as uint32
         particle_id.tiff              (marine snow only) uint32 index of the nearest particle whose image
                                       reaches into the pixel, shown or not (every particle in view)
-        record.json                   every drawn parameter and derived value; written last: its
-                                      presence means the sample is complete
+        record.json                   every drawn parameter and derived value, and the code that computed
+                                      them (``code``, :func:`rigsim.code_version.code_version`); written
+                                      last: its presence means the sample is complete
 
-Sample ``i`` with seed ``S`` is the same wherever and whenever it is computed.
+Sample ``i`` with seed ``S`` is the same wherever and whenever the same code computes it.  A run resumed
+after rigsim changed computes the samples of other code again (a dataset is one engine's images).
 """
 
 from __future__ import annotations
@@ -51,6 +53,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rigsim.code_version import code_version, computed_here
 from rigsim.dataset.spec import DatasetSpec
 from rigsim.fileio import (atomic_write_bytes, atomic_write_text, drop_unreadable_records, folder_lock,
                            remove_stale_temp_files)
@@ -124,7 +127,18 @@ def _store(out: Path, index: int, res: dict) -> None:
 def _compute(args):
     from rigsim.dataset.sample import compute_sample
 
-    return compute_sample(args)
+    res = compute_sample(args)
+    res["record"]["code"] = code_version()  # the code that computed it (a resumed run of other code redoes it)
+    return res
+
+
+def _finished(out: Path, index: int) -> bool:
+    """Sample ``index`` has a record of this code (:func:`rigsim.code_version.computed_here`)."""
+    try:
+        rec = json.loads((sample_dir(out, index) / "record.json").read_text())
+    except (OSError, ValueError):
+        return False
+    return isinstance(rec, dict) and computed_here(rec)
 
 
 def _manifest_row(rec: dict, folder: str) -> dict:
@@ -176,8 +190,8 @@ def write_manifest(out: Path, n: int) -> Path:
     for i in range(n):
         d = sample_dir(out, i)
         f = d / "record.json"
-        if not f.is_file():
-            continue
+        if not _finished(out, i):
+            continue  # not finished, or by other code (an interrupted run after an update: not mixed in)
         folder = f"samples/{i:06d}"
         row = _manifest_row(json.loads(f.read_text()), folder)
         row.update(_camera_columns(d))
@@ -250,6 +264,10 @@ def run_dataset(spec: DatasetSpec, n: int, out: str | Path, *, seed: int = 0, sc
         remove_stale_temp_files(out)  # what a killed run was writing
         for f in drop_unreadable_records(out, "samples/*/record.json", ("index", "water", "objects")):
             log.warning("%s was damaged: computing that sample again", f)
+        other = [i for i in range(n) if (sample_dir(out, i) / "record.json").is_file() and not _finished(out, i)]
+        if other:
+            log.warning("%d finished sample(s) in %s were computed by other rigsim code (not %s): computing them "
+                        "again", len(other), out, code_version())
         from rigsim.dataset.sample import spec_categories
 
         atomic_write_text(out / "dataset.json",
@@ -259,7 +277,7 @@ def run_dataset(spec: DatasetSpec, n: int, out: str | Path, *, seed: int = 0, sc
         items = [(spec, i, seed, overrides.get(i)) for i in range(n)]
         try:
             run_tasks(items, _compute, lambda it, res: _store(out, it[1], res),
-                      is_done=lambda it: (sample_dir(out, it[1]) / "record.json").is_file(),
+                      is_done=lambda it: _finished(out, it[1]),
                       key=lambda it: f"{it[1]:06d}", scheduler=scheduler, workers=workers, serial=serial,
                       progress=progress, label="dataset")
         finally:

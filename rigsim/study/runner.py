@@ -45,7 +45,7 @@ from collections.abc import Callable
 from dataclasses import replace
 from pathlib import Path
 
-from rigsim.code_version import code_version
+from rigsim.code_version import code_version, computed_here
 from rigsim.fileio import (atomic_write_bytes, atomic_write_text, drop_unreadable_records, folder_lock,
                            remove_stale_temp_files)
 from rigsim.study.spec import Case, StudySpec
@@ -80,19 +80,13 @@ def pending_cases(spec: StudySpec, out: Path) -> list[Case]:
     return [c for c in spec.cases() if _read_record(_case_dir(out, spec, c) / "result.json") is None]
 
 
-def _record_code(rec: dict) -> str | None:
-    """The code version a case's (``meta.code``) or a check's (``code``) record was computed by."""
-    meta = rec.get("meta")
-    return rec.get("code", meta.get("code") if isinstance(meta, dict) else None)
-
-
 def _read_record(f: Path, *, any_code: bool = False) -> dict | None:
     """The record in ``f`` if it was computed by this code (or by any, with ``any_code``); else None."""
     try:
         rec = json.loads(f.read_text()) if f.is_file() else None
     except (OSError, ValueError):
         return None
-    if not isinstance(rec, dict) or (not any_code and _record_code(rec) != code_version()):
+    if not isinstance(rec, dict) or (not any_code and not computed_here(rec)):
         return None
     return rec
 
@@ -104,7 +98,7 @@ def records_of_other_code(out: Path) -> list[Path]:
     for pattern in ("cases/*/result.json", "checks/*/check.json"):
         for f in sorted(out.glob(pattern)):
             rec = _read_record(f, any_code=True)
-            if rec is not None and _record_code(rec) != code_version():
+            if rec is not None and not computed_here(rec):
                 found.append(f)
     return found
 

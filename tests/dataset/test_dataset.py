@@ -129,6 +129,34 @@ def test_deterministic_across_workers(tmp_path):
             assert (a / "samples" / f"{i:06d}" / f).read_bytes() == (b / "samples" / f"{i:06d}" / f).read_bytes()
 
 
+@pytest.mark.render
+def test_a_dataset_resumed_by_other_code_computes_its_samples_again(tmp_path, monkeypatch, caplog):
+    import logging
+
+    import rigsim.code_version as code_version_module
+    import rigsim.dataset.writer as writer
+
+    spec = load_dataset_spec(spec_file(tmp_path))
+    computed = []
+    compute = writer._compute
+    monkeypatch.setattr(writer, "_compute", lambda args: computed.append(args[1]) or compute(args))
+    out = run_dataset(spec, 1, tmp_path / "d", seed=5, serial=True, progress=False)
+    rec_file = out / "samples" / "000000" / "record.json"
+    assert json.loads(rec_file.read_text())["code"] == code_version_module.code_version()
+    run_dataset(spec, 1, out, seed=5, serial=True, progress=False)
+    assert computed == [0]  # the same code: not computed again
+    for module in (writer, code_version_module):
+        monkeypatch.setattr(module, "code_version", lambda: "0123456789ab")
+    assert not writer._finished(out, 0)
+    writer.write_manifest(out, 1)  # an update, then the tables before the run: no sample of other code in them
+    assert (out / "manifest.csv").read_text() == ""
+    with caplog.at_level(logging.WARNING, logger="rigsim.dataset.writer"):
+        run_dataset(spec, 1, out, seed=5, serial=True, progress=False)
+    assert computed == [0, 0] and "1 finished sample(s)" in caplog.text
+    assert json.loads(rec_file.read_text())["code"] == "0123456789ab"
+    assert (out / "manifest.csv").read_text().count("\n") == 2  # header + the sample
+
+
 @pytest.mark.parametrize("old,new,pattern", [
     ("distance_m = [1.0, 2.0]", "distance_m = [3.0, 1.0]", r"scene.distance_m: impossible range \[3, 1\]"),
     ("distance_m = [1.0, 2.0]", "distance_m = [0.05, 1.0]", r"scene.distance_m: .*touch the port"),

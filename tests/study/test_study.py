@@ -82,6 +82,7 @@ def test_interrupted_study_resumes_to_the_same_table(tmp_path):
 
 @pytest.mark.render
 def test_a_study_resumed_by_other_code_computes_its_finished_cases_again(tmp_path, monkeypatch, caplog):
+    import rigsim.code_version as code_version_module
     import rigsim.study.runner as runner
     from rigsim.code_version import code_version
 
@@ -100,7 +101,8 @@ def test_a_study_resumed_by_other_code_computes_its_finished_cases_again(tmp_pat
     records[0].write_text(json.dumps(rec))
     assert runner.pending_cases(spec, out) == [c for c in spec.cases() if records[0].parent.name == spec.case_id(c)]
     # an updated rigsim: every finished case is of other code; none of them reaches the tables meanwhile
-    monkeypatch.setattr(runner, "code_version", lambda: "0123456789ab")
+    for module in (runner, code_version_module):
+        monkeypatch.setattr(module, "code_version", lambda: "0123456789ab")
     assert runner.pending_cases(spec, out) == spec.cases()
     assert runner.read_results(spec, out)[0] == []
     with caplog.at_level(logging.WARNING, logger="rigsim.study.runner"):
