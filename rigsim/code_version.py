@@ -6,9 +6,11 @@ mixing two engines' numbers in one table (:mod:`rigsim.study.runner`; a case's i
 inputs, not the code that computes it).  The hash is of the files themselves, not of a git commit:
 it holds in an installed copy without git and changes with any edit.
 
-What it covers: every ``.py`` file of the package except those that only present or drive results
-(:data:`NOT_COMPUTING`: the web UI, the HTML report, the command line, the dataset writer, the strobe
-optimiser - none of the computing packages imports them), and every table under
+A dataset's samples (``record.json``) record it the same way (:mod:`rigsim.dataset.writer`).
+
+What it covers: every ``.py`` file of the package except those that only present results or take
+commands (:data:`NOT_COMPUTING`: the web UI, the HTML report, the command line - none of the computing
+packages imports them), and every table under
 :data:`rigsim.data.DATA_DIR` except the fast engine's published agreement table (the benchmark's
 output, read by the rig designer only).
 
@@ -27,8 +29,8 @@ from pathlib import Path
 
 __all__ = ["code_version", "computed_here", "NOT_COMPUTING"]
 
-#: Sub-packages of ``rigsim`` left out of the hash: they present or drive results, not compute them.
-NOT_COMPUTING = ("ui", "report", "cli", "dataset", "optimise")
+#: Sub-packages of ``rigsim`` left out of the hash: they present results or take commands, not compute.
+NOT_COMPUTING = ("ui", "report", "cli")
 #: Folders of the data tree left out (relative to ``DATA_DIR``): outputs, not inputs.
 _DATA_OUTPUTS = ("fast_engine",)
 

@@ -117,7 +117,7 @@ def test_the_code_version_covers_the_computing_code_and_its_tables_not_the_prese
 
     names = {n for n, _ in _files()}
     assert {"rigsim/water/model.py", "rigsim/preview/model.py", "rigsim/study/case.py", "rigsim/sensor/__init__.py",
-            "data/water/jerlov_iop_solonenko_mobley_2015.csv"} <= names
+            "data/water/jerlov_iop_solonenko_mobley_2015.csv", "rigsim/dataset/sample.py"} <= names
     assert not [n for n in names if n.startswith(("rigsim/ui/", "rigsim/report/", "rigsim/cli/", "data/fast_engine/"))]
     assert not [n for n in names if "__pycache__" in n]
 
