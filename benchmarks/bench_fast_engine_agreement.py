@@ -21,6 +21,7 @@ holds the reference's noise and the fast engine's own, from its photon batches).
     python benchmarks/bench_fast_engine_agreement.py --multiple-scattering off --quick    # without the multiply scattered light
     python benchmarks/bench_fast_engine_agreement.py --quick --out out/b --renders-from out/a   # a fast-engine change
                                                                   # against the Monte Carlo renders a run into out/a kept
+    python benchmarks/bench_fast_engine_agreement.py --status   # the published table: which rows this engine measured
 
 Each Monte Carlo render is kept as it finishes (``<out>/<lighting>/mc-renders``, keyed by the scene's contents, seed,
 bands and render settings, the renderer's default sampling options among them — not by where the checkout is, nor by
@@ -123,6 +124,58 @@ def _engine_id() -> str:
     return f"commit {head}{'-dirty' if dirty else ''}" if head else ""
 
 
+#: What makes and compares the two images of a check: a change here since a row's commit makes it a row of an earlier
+#: engine (``--status``).  The study's runner, the sensor, datasets, the UI and the report are not among them.
+ENGINE_PATHS = ("rigsim/preview", "rigsim/water", "rigsim/light", "rigsim/scene", "rigsim/render", "rigsim/daylight",
+                "rigsim/metrics", "rigsim/config", "rigsim/spectrum.py", "rigsim/spectral_image.py",
+                "rigsim/environment.py", "rigsim/data.py", "rigsim/study/case.py", "rigsim/study/spec.py", "data",
+                ":(exclude)data/fast_engine")
+
+
+def _same_engine(commit: str) -> bool:
+    """Whether the fast engine and the check of ``commit`` are this checkout's (no change since in
+    :data:`ENGINE_PATHS`, the working tree's edits included)."""
+    import subprocess
+
+    try:
+        return subprocess.run(["git", "-C", str(ROOT), "diff", "--quiet", commit, "--", *ENGINE_PATHS],
+                              capture_output=True, timeout=60).returncode == 0
+    except (OSError, subprocess.SubprocessError):
+        return False
+
+
+def print_status(path: Path = PUBLISHED) -> int:
+    """The published table as it stands: its rows, cells and cells beyond tolerance + t*SE by the fast engine
+    that measured them — this checkout's (a commit since which the engine did not change) or an earlier one —
+    and the rows of earlier engines, which a change of the engine left to be made again."""
+    with open(path, newline="") as fh:
+        rows = list(csv.DictReader(ln for ln in fh if not ln.startswith("#")))
+    same: dict[str, bool] = {}
+    for r in rows:
+        e = r.get("engine") or ""
+        if e not in same:
+            commit = e.removeprefix("commit ")
+            same[e] = bool(e) and not e.endswith("-dirty") and _same_engine(commit)
+    n = lambda rs, k: sum(int(r[k]) for r in rs)  # noqa: E731
+    over = lambda rs: sum(abs(float(r["worst_deviation"])) > float(r["tolerance"]) for r in rs)  # noqa: E731
+    cur = [r for r in rows if same[r.get("engine") or ""]]
+    old = [r for r in rows if not same[r.get("engine") or ""]]
+    shown = path.relative_to(ROOT) if path.is_relative_to(ROOT) else path
+    print(f"{shown}: {len(rows)} rows, {n(rows, 'cells')} cells, {n(rows, 'beyond')} beyond tolerance "
+          f"+ t*SE; {over(rows)} rows whose worst cell is beyond its tolerance (within the reference's noise)")
+    engines = ", ".join(sorted({r['engine'].removeprefix('commit ') for r in cur}))
+    print(f"  this checkout's fast engine{f' (measured at {engines})' if engines else ''}: {len(cur)} rows, "
+          f"{n(cur, 'cells')} cells, {n(cur, 'beyond')} beyond, {over(cur)} rows with a worst cell beyond its tolerance")
+    print(f"  earlier engines (blank: before the column, 2026-12-06): {len(old)} rows, {n(old, 'cells')} cells, "
+          f"{n(old, 'beyond')} beyond; to make again:")
+    groups: dict[tuple[str, str], list[str]] = defaultdict(list)
+    for r in old:
+        groups[(r["lighting"], r["rig"])].append(f"{r['water']} ({r['distances_m']} m)")
+    for (light, rig), ws in sorted(groups.items()):
+        print(f"    {light:<14} {rig:<28} {'; '.join(ws)}")
+    return 0
+
+
 def main(argv=None) -> int:
     from rigsim.water import JERLOV_TYPES, ORIGINAL_PRESETS
 
@@ -166,9 +219,14 @@ def main(argv=None) -> int:
                          "(rigsim.render.hybrid.smooth_chart_veil; 0: each pixel's own)")
     ap.add_argument("--hybrid-max-seeds", type=int, default=None,
                     help="--max-seeds for the hybrid cases alone (the disk and daylight cases keep --max-seeds)")
+    ap.add_argument("--status", action="store_true",
+                    help=f"print {PUBLISHED.relative_to(ROOT)} by the fast engine each row measured (this checkout's or "
+                         "an earlier one) and the rows to make again; renders nothing")
     ap.add_argument("--publish", action="store_true",
                     help=f"write the per-water summary to {PUBLISHED.relative_to(ROOT)} (the rig designer shows it)")
     args = ap.parse_args(argv)
+    if args.status:
+        return print_status()
     if args.quick:
         args.waters, args.distances, args.rigs, args.depths = "clear,coastal-regions,jerlov-3C", "1,3", \
             "twin-strobes-45-wide", ""

@@ -238,6 +238,40 @@ def test_the_published_table_says_which_fast_engine_each_row_measured(tmp_path, 
     assert published_agreement("coastal").engine == "" and published_agreement("jerlov-9C").worst_deviation == 0.02
 
 
+def test_the_benchmark_status_lists_the_rows_an_earlier_fast_engine_measured(tmp_path, capsys):
+    """``bench_fast_engine_agreement.py --status``: a row measured at a commit whose engine differs from this
+    checkout's (the first commit), a "-dirty" one and a blank one are to be made again; one measured at this
+    checkout's commit is not (where the checkout's engine has no uncommitted change)."""
+    import importlib.util
+    import subprocess
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    git = lambda *a: subprocess.run(["git", "-C", str(root), *a], capture_output=True, text=True)  # noqa: E731
+    head, first = git("rev-parse", "--short", "HEAD").stdout.strip(), git("rev-list", "--max-parents=0", "HEAD").stdout.split()
+    if not head or not first:
+        pytest.skip("not a git checkout")
+    spec = importlib.util.spec_from_file_location("bench_agreement", root / "benchmarks" / "bench_fast_engine_agreement.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    header = "lighting,water,rig,cases,distances_m,worst_deviation,worst_se,worst_where,tolerance,beyond,cells,measured,engine,settings\n"
+    row = lambda water, engine, dev, beyond: (f'strobes,{water},wide,4,"1, 3",{dev},0.01,x,0.05,{beyond},100,'  # noqa: E731
+                                              f"2026-12-06,{engine},s\n")
+    path = tmp_path / "agreement.csv"
+    path.write_text("# a comment line\n" + header + row("jerlov-9C", f"commit {head}", -0.02, 0)
+                    + row("jerlov-7C", f"commit {first[0][:7]}", 0.08, 1) + row("jerlov-5C", f"commit {head}-dirty", 0.01, 0)
+                    + row("jerlov-3C", "", -0.06, 0))
+    assert bench.print_status(path) == 0
+    out = capsys.readouterr().out
+    assert f"{path}: 4 rows, 400 cells, 1 beyond tolerance + t*SE; 2 rows whose worst cell is beyond" in out
+    earlier = out.split("earlier engines")[1]
+    assert "jerlov-7C (1, 3 m)" in earlier and "jerlov-5C" in earlier and "jerlov-3C" in earlier
+    clean = git("diff", "--quiet", "HEAD", "--", *bench.ENGINE_PATHS).returncode == 0
+    assert ("jerlov-9C" not in earlier) == clean
+    if clean:
+        assert f"this checkout's fast engine (measured at {head}): 1 rows, 100 cells, 0 beyond" in out
+
+
 def test_the_published_line_says_when_the_reference_is_too_noisy_to_show_agreement():
     import dataclasses
 
