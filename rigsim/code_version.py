@@ -23,7 +23,6 @@ Examples
 
 from __future__ import annotations
 
-import functools
 import hashlib
 from pathlib import Path
 
@@ -47,15 +46,24 @@ def _files() -> list[tuple[str, Path]]:
     return sorted(files)
 
 
-@functools.cache
-def code_version() -> str:
-    """12 hex digits of the SHA-1 over the computing code's and the data tables' names and contents."""
+def _hash() -> str:
     h = hashlib.sha1()
     for name, path in _files():
         h.update(name.encode() + b"\0")
         h.update(path.read_bytes())
         h.update(b"\0")
     return h.hexdigest()[:12]
+
+
+#: This process's code version, taken when this module is first imported - with the package, before any
+#: work: files edited while a run goes on do not change what its processes say they loaded.
+_LOADED = _hash()
+
+
+def code_version() -> str:
+    """12 hex digits of the SHA-1 over the computing code's and the data tables' names and contents, as they
+    were when this process imported rigsim."""
+    return _LOADED
 
 
 def computed_here(record: dict) -> bool:

@@ -132,6 +132,15 @@ def _compute(args):
     return res
 
 
+def _store_checked(out: Path, index: int, res: dict) -> None:
+    """:func:`_store`, saying so where a worker computed the sample with other code than this run's."""
+    _store(out, index, res)
+    if res["record"].get("code") != code_version():
+        log.warning("sample %06d was computed by other rigsim code (%s, this run %s): rigsim's files changed while "
+                    "the dataset ran; it is left out of the manifest - run the dataset again to compute it with one "
+                    "code", index, res["record"].get("code"), code_version())
+
+
 def _finished(out: Path, index: int) -> bool:
     """Sample ``index`` has a record of this code (:func:`rigsim.code_version.computed_here`)."""
     try:
@@ -276,7 +285,7 @@ def run_dataset(spec: DatasetSpec, n: int, out: str | Path, *, seed: int = 0, sc
         overrides = overrides or {}
         items = [(spec, i, seed, overrides.get(i)) for i in range(n)]
         try:
-            run_tasks(items, _compute, lambda it, res: _store(out, it[1], res),
+            run_tasks(items, _compute, lambda it, res: _store_checked(out, it[1], res),
                       is_done=lambda it: _finished(out, it[1]),
                       key=lambda it: f"{it[1]:06d}", scheduler=scheduler, workers=workers, serial=serial,
                       progress=progress, label="dataset")

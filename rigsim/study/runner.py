@@ -191,6 +191,11 @@ def _is_done(out: Path, item: tuple[StudySpec, str, Case]) -> bool:
 def _store_item(out: Path, item: tuple[StudySpec, str, Case], res: dict) -> None:
     spec, kind, case = item
     (_store_check if kind == "check" else _store)(out, spec, case, res)
+    code = (res.get("meta") or {}).get("code")
+    if code != code_version():  # a worker that loaded rigsim after its files changed: not this run's code
+        log.warning("%s was computed by other rigsim code (%s, this run %s): rigsim's files changed while the "
+                    "study ran; it is left out of the tables - run the study again to compute it with one code",
+                    _item_key(item), code, code_version())
 
 
 def _item_key(item: tuple[StudySpec, str, Case]) -> str:

@@ -155,6 +155,17 @@ def test_a_dataset_resumed_by_other_code_computes_its_samples_again(tmp_path, mo
     assert computed == [0, 0] and "1 finished sample(s)" in caplog.text
     assert json.loads(rec_file.read_text())["code"] == "0123456789ab"
     assert (out / "manifest.csv").read_text().count("\n") == 2  # header + the sample
+    # a worker that loaded rigsim after its files changed mid-run: named, and kept out of the manifest
+    def edited_meanwhile(args):
+        res = compute(args)
+        res["record"]["code"] = "feedbeef0000"
+        return res
+
+    monkeypatch.setattr(writer, "_compute", edited_meanwhile)
+    with caplog.at_level(logging.WARNING, logger="rigsim.dataset.writer"):
+        run_dataset(spec, 1, tmp_path / "e", seed=5, serial=True, progress=False)
+    assert "sample 000000 was computed by other rigsim code (feedbeef0000" in caplog.text
+    assert (tmp_path / "e" / "manifest.csv").read_text() == ""
 
 
 @pytest.mark.parametrize("old,new,pattern", [

@@ -112,6 +112,28 @@ def test_a_study_resumed_by_other_code_computes_its_finished_cases_again(tmp_pat
     assert (out / "results.csv").read_text() == first  # (the same code in fact: the same numbers)
 
 
+@pytest.mark.render
+def test_a_case_computed_by_code_loaded_after_an_edit_is_named_and_left_out(tmp_path, monkeypatch, caplog):
+    """A worker that imported rigsim after its files changed mid-run computes with other code: the run says so
+    (one line per item) and keeps that case out of the tables, so a run never mixes two codes silently."""
+    import rigsim.study.runner as runner
+
+    run_one = runner._run_one
+
+    def edited_meanwhile(*args, **kwargs):
+        res = run_one(*args, **kwargs)
+        res["meta"]["code"] = "feedbeef0000"
+        return res
+
+    monkeypatch.setattr(runner, "_run_one", edited_meanwhile)
+    spec = load_study(tiny(tmp_path, "[1.0]"))
+    with caplog.at_level(logging.WARNING, logger="rigsim.study.runner"):
+        out = run_study(spec, tmp_path / "s", serial=True, progress=False)
+    assert f"{spec.case_id(spec.cases()[0])} was computed by other rigsim code (feedbeef0000" in caplog.text
+    assert "run the study again" in caplog.text
+    assert runner.read_results(spec, out)[0] == [] and runner.pending_cases(spec, out) == spec.cases()
+
+
 def test_the_code_version_covers_the_computing_code_and_its_tables_not_the_presenting_code():
     from rigsim.code_version import _files
 
