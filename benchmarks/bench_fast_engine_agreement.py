@@ -243,6 +243,7 @@ def main(argv=None) -> int:
 
     args.out.mkdir(parents=True, exist_ok=True)
     rows: list[dict] = []
+    missing = False
     t0 = time.perf_counter()
     for name, rig_files, depth in runs:
         f = args.out / f"{name}.toml"
@@ -269,7 +270,12 @@ def main(argv=None) -> int:
                 dst.parent.mkdir(parents=True, exist_ok=True)
                 dst.symlink_to(src, target_is_directory=True)
         out = run_study(spec, args.out / name, serial=args.serial)
-        for r in agreement_rows(read_checks(spec, out)):
+        checks = read_checks(spec, out)
+        if len(checks) < len(spec.check_cases()):  # failed, or computed by other code (the run's warnings say)
+            print(f"{name}: {len(spec.check_cases()) - len(checks)} of {len(spec.check_cases())} checks missing: "
+                  f"run the same command again to compute them", file=sys.stderr)
+            missing = True
+        for r in agreement_rows(checks):
             rows.append({**r, "lighting": name})
     print(f"\n{len(rows)} cells from {len({(r['lighting'], r['rig'], r['water'], r['target'], r['distance_m']) for r in rows})} "
           f"checked cases in {time.perf_counter() - t0:.0f} s; Monte Carlo: {args.seeds} x {args.spp} paths per pixel at "
@@ -278,6 +284,10 @@ def main(argv=None) -> int:
           + (f"; daylight {args.daylight_target_se:.2%}" if args.daylight_target_se is not None and args.depths else "")
           + ")\n")
     print_table(rows)
+    if missing:  # a partial table is printed, never published (a row would stand for cases it lacks)
+        if args.publish:
+            print("not published: some checks are missing (above)", file=sys.stderr)
+        return 1
     if args.publish:
         from rigsim.metrics.agreement import write_published
 
