@@ -146,7 +146,11 @@ class Optimum:
         return 1.0 - s1 / s0
 
     def record(self) -> dict:
+        """The optimum as JSON-ready numbers, with ``code``: the rigsim code that found it
+        (:func:`rigsim.code_version.code_version`)."""
         from dataclasses import asdict
+
+        from rigsim.code_version import code_version
 
         return {
             "setting": asdict(self.setting), "weights": asdict(self.weights), "seed": self.seed,
@@ -158,7 +162,7 @@ class Optimum:
             "start": self.start.record(self.weights), "best": self.best.record(self.weights),
             "start_search_score": self.start_search_score, "best_search_score": self.best_search_score,
             "improvement": self.improvement, "evaluations": self.evaluations, "seconds": self.seconds,
-            "history": [list(h) for h in self.history], "notes": list(self.notes),
+            "history": [list(h) for h in self.history], "notes": list(self.notes), "code": code_version(),
         }
 
 

@@ -2,7 +2,9 @@
 
 :func:`sweep_optimum` runs :func:`~rigsim.optimise.search.optimise` for every water × distance and
 keeps each result as ``cell-<water>-<distance>m.json`` in the output folder the moment it is found
-(atomically), so an interrupted sweep resumes where it stopped; :func:`write_sweep` writes
+(atomically), so an interrupted sweep resumes where it stopped (a cell found with other settings, or by other
+rigsim code — each names the code that computed it, :mod:`rigsim.code_version` — is searched again, as a study's
+cases are); :func:`write_sweep` writes
 ``sweep.csv``, ``sweep.png`` (arm length, outward turn and score gain versus distance, one line per
 water), an optimised rig file per cell and ``sweep.html`` with one sentence per water:
 "For 1–2 m in coastal water the arms should be 0.41–0.80 m long, turned 52–57° outward (arms 9–25° above the
@@ -13,6 +15,7 @@ from __future__ import annotations
 
 import io
 import json
+import logging
 import math
 import re
 from dataclasses import asdict, replace
@@ -23,6 +26,8 @@ from rigsim.optimise.objective import DEFAULT_WEIGHTS, Setting, Weights
 from rigsim.optimise.search import optimise
 
 __all__ = ["sweep_optimum", "write_sweep", "water_sentence", "cell_name"]
+
+log = logging.getLogger(__name__)
 
 
 def cell_name(water: str, distance_m: float) -> str:
@@ -35,22 +40,34 @@ def sweep_optimum(doc: RigDoc, base: Setting, waters: list[str], distances_m: li
                   weights: Weights = DEFAULT_WEIGHTS, limits: dict | None = None, symmetric: bool | None = None,
                   seed: int = 0, progress=None, **search) -> list[dict]:
     """Optimise for every water × distance, resuming from the cells already in ``out``; the cells' records
-    (:meth:`Optimum.record` plus ``water``, ``distance_m`` and the rig file's text)."""
+    (:meth:`Optimum.record` plus ``water``, ``distance_m``, the rig file's text and ``code``, the
+    :func:`~rigsim.code_version.code_version` that computed it).  A cell kept from a run with other settings or
+    by other rigsim code is searched again (the latter with a warning)."""
+    from rigsim.code_version import code_version, computed_here
     from rigsim.fileio import atomic_write_text, ensure_folder
 
     out = ensure_folder(out)
     cells = [(w, float(d)) for w in waters for d in distances_m]
+    kept, stale = {}, []
+    for w, d in cells:
+        path = out / f"cell-{cell_name(w, d)}.json"
+        try:
+            rec = json.loads(path.read_text()) if path.exists() else None
+        except (OSError, ValueError):
+            rec = None  # half-written or damaged: redo
+        if not isinstance(rec, dict) or \
+                rec.get("key") != _key(doc, base, w, d, weights, limits, symmetric, seed, search):
+            continue  # none, or made with other settings: redo
+        if computed_here(rec):
+            kept[(w, d)] = rec
+        else:
+            stale.append(path.name)
+    if stale:
+        log.warning("%d finished cell(s) in %s were found by other rigsim code (not %s): searching them again (%s)",
+                    len(stale), out, code_version(), ", ".join(stale))
     rows = []
     for i, (w, d) in enumerate(cells):
-        path = out / f"cell-{cell_name(w, d)}.json"
-        rec = None
-        if path.exists():
-            try:
-                rec = json.loads(path.read_text())
-                if rec.get("key") != _key(doc, base, w, d, weights, limits, symmetric, seed, search):
-                    rec = None  # made with other settings: redo
-            except (OSError, ValueError):
-                rec = None
+        rec = kept.get((w, d))
         if rec is None:
             if progress:
                 progress(i / len(cells), f"optimising for {w} at {d:g} m ({i + 1}/{len(cells)})")
@@ -59,7 +76,7 @@ def sweep_optimum(doc: RigDoc, base: Setting, waters: list[str], distances_m: li
             rec = opt.record()
             rec.update(water=w, distance_m=d, rig_toml=opt.best_doc.to_toml(), improvement=opt.improvement,
                        key=_key(doc, base, w, d, weights, limits, symmetric, seed, search))
-            atomic_write_text(path, json.dumps(rec, indent=1, default=str))
+            atomic_write_text(out / f"cell-{cell_name(w, d)}.json", json.dumps(rec, indent=1, default=str))
         rows.append(rec)
     if progress:
         progress(1.0, "sweep done")

@@ -4,6 +4,7 @@ one-line errors."""
 from __future__ import annotations
 
 import json
+import logging
 import os
 from pathlib import Path
 
@@ -56,7 +57,7 @@ def test_usage_mistake_prints_usage(capsys):
     assert rc == 2 and "Usage:" in err and "--water" in err
 
 
-def test_sweep_resumes_and_prints_a_sentence_per_water(tmp_path, capsys):
+def test_sweep_resumes_and_prints_a_sentence_per_water(tmp_path, capsys, caplog):
     out = tmp_path / "s"
     argv = ["optimise", RIG, "--water", "coastal", "--distance", "1,2", "--quick", "--out", str(out)]
     assert run_command(argv) == 0
@@ -71,3 +72,17 @@ def test_sweep_resumes_and_prints_a_sentence_per_water(tmp_path, capsys):
     os.utime(cells[0], ns=(stamp, stamp))
     assert run_command(argv) == 0
     assert cells[0].stat().st_mtime_ns == stamp and cells[1].exists()
+    # a cell found by other rigsim code (an update between the runs) is searched again, with a warning
+    from rigsim.code_version import code_version
+
+    rec = json.loads(cells[0].read_text())
+    assert rec["code"] == code_version()
+    rec["code"] = "0" * 12
+    cells[0].write_text(json.dumps(rec))
+    os.utime(cells[0], ns=(stamp, stamp))
+    stamp1 = cells[1].stat().st_mtime_ns
+    with caplog.at_level(logging.WARNING, logger="rigsim.optimise.sweep"):
+        assert run_command(argv) == 0
+    assert "1 finished cell(s)" in caplog.text and "other rigsim code" in caplog.text and cells[0].name in caplog.text
+    assert json.loads(cells[0].read_text())["code"] == code_version()
+    assert cells[0].stat().st_mtime_ns != stamp and cells[1].stat().st_mtime_ns == stamp1
