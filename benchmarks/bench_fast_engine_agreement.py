@@ -156,13 +156,14 @@ def print_status(path: Path = PUBLISHED) -> int:
         if e not in same:
             commit = e.removeprefix("commit ")
             same[e] = bool(e) and not e.endswith("-dirty") and _same_engine(commit)
-    n = lambda rs, k: sum(int(r[k]) for r in rs)  # noqa: E731
+    n = lambda rs, k: sum(int(r.get(k) or 0) for r in rs)  # noqa: E731
     over = lambda rs: sum(abs(float(r["worst_deviation"])) > float(r["tolerance"]) for r in rs)  # noqa: E731
     cur = [r for r in rows if same[r.get("engine") or ""]]
     old = [r for r in rows if not same[r.get("engine") or ""]]
     shown = path.relative_to(ROOT) if path.is_relative_to(ROOT) else path
     print(f"{shown}: {len(rows)} rows, {n(rows, 'cells')} cells, {n(rows, 'beyond')} beyond tolerance "
-          f"+ t*SE; {over(rows)} rows whose worst cell is beyond its tolerance (within the reference's noise)")
+          f"+ t*SE; {over(rows)} rows whose worst cell is beyond its tolerance (within the reference's noise); "
+          f"{n(rows, 'beyond_visibility')} chart cells beyond the chart's visibility, not judged")
     engines = ", ".join(sorted({r['engine'].removeprefix('commit ') for r in cur}))
     print(f"  this checkout's fast engine{f' (measured at {engines})' if engines else ''}: {len(cur)} rows, "
           f"{n(cur, 'cells')} cells, {n(cur, 'beyond')} beyond, {over(cur)} rows with a worst cell beyond its tolerance")
@@ -319,9 +320,12 @@ def _f(x) -> float:
 
 
 def print_table(rows: list[dict]) -> None:
-    """Per lighting and water: the worst deviation of each kind (and colour group), then the worst cells."""
-    from rigsim.metrics.agreement import HEAVY_TAIL, case_key, heavy_tailed, target_tails
+    """Per lighting and water: the worst deviation of each kind (and colour group), then the worst cells.  The
+    chart cells of cases beyond the chart's visibility (verdict "beyond visibility") are counted, not judged."""
+    from rigsim.metrics.agreement import HEAVY_TAIL, MIN_CONTRAST, case_key, heavy_tailed, judged, target_tails
 
+    unseen = [r for r in rows if not judged(r)]
+    rows = [r for r in rows if judged(r)]
     by = defaultdict(list)
     for r in rows:
         by[(r["lighting"], r["water"])].append(r)
@@ -363,6 +367,11 @@ def print_table(rows: list[dict]) -> None:
           f"{n_tail} of them with a heavy-tailed reference (one render >= {HEAVY_TAIL:g}x the median), {n_case} "
           f"target cells in a case whose target's reference is heavy-tailed in some region (that reference may "
           f"have missed the rare paths: bench_reference_convergence.py renders such a case until it converges)")
+    if unseen:
+        cases = sorted({(r["lighting"], r["rig"], r["water"], _f(r["distance_m"])) for r in unseen})
+        print(f"beyond the chart's visibility (its contrast below {MIN_CONTRAST:.0%} in both engines; listed in "
+              f"agreement.csv, not judged): {len(unseen)} chart cells of {len(cases)} cases: "
+              + "; ".join(f"{c[2]} {c[3]:g} m ({c[1]})" for c in cases))
 
 
 if __name__ == "__main__":

@@ -15,6 +15,14 @@ the fast engine's batches), with jackknife standard errors (:func:`pooled_metric
 render's own was averaged, which the renders' noise biased: a contrast of 0.004 read 0.125), and the
 contrast is compared only where Monte Carlo's is at least :data:`MIN_CONTRAST`.
 
+The comparison's range ends where the chart can no longer be seen (issue 18: "0.5–6 m, or to where the
+chart's contrast falls below 1 %"): in a case whose ColorChecker's white-against-black contrast is below
+:data:`MIN_CONTRAST` in both engines — the fast engine's below it by two of its standard errors, Monte Carlo's
+within its 95 % interval (:func:`chart_beyond_visibility`) — the patch cells are kept, with their numbers, but
+get the verdict ``beyond visibility`` instead of a judgement (Jerlov 3C at 6 m: 0.15 % and 1.2 ± 0.5 %; there
+a patch is the veil in front of it, measured as the open water is).  Both engines must place the chart below
+1 %, so a fast engine that lost a visible chart's light cannot move its own cells out of the comparison.
+
 Regions are taken from the fast engine's object-id layer, without edge pixels: a patch or the disk
 eroded by one pixel (:func:`rigsim.metrics.scene.target_masks`), the open water farther than
 ``margin`` of the image width from every target pixel.  The two engines sample a pixel's footprint
@@ -58,7 +66,8 @@ from rigsim.spectrum import colour_groups
 __all__ = ["RegionDeviation", "MetricDeviation", "CLEAR_WATERS", "MIN_CONTRAST", "PublishedAgreement",
            "published_agreement", "write_published", "PUBLISHED_TABLE", "tolerance_for", "comparison_regions",
            "compare_renders", "verdict", "noise_multiplier", "relative_se", "HEAVY_TAIL", "heavy_tailed",
-           "case_key", "target_tails", "mean_image", "pooled_metric"]
+           "case_key", "target_tails", "mean_image", "pooled_metric", "BEYOND_VISIBILITY", "chart_beyond_visibility",
+           "judged"]
 
 #: Waters in which the fast engine should agree within 3 % (Jerlov's oceanic types I–III and the
 #: original write-up's clear waters); elsewhere 5 %.
@@ -69,6 +78,10 @@ CLEAR_WATERS = frozenset({"jerlov-I", "jerlov-IA", "jerlov-IB", "jerlov-II", "je
 #: Contrasts are compared where the Monte Carlo contrast is at least this (1 %): below it the target
 #: is invisible, and a relative difference of two tiny contrasts says nothing about the picture.
 MIN_CONTRAST = 0.01
+
+#: The verdict of a chart patch's cell in a case whose chart is not visible in either engine
+#: (:func:`chart_beyond_visibility`): listed, not judged.
+BEYOND_VISIBILITY = "beyond visibility"
 
 
 #: A reference whose largest render's region mean is at least this many times the median render's is
@@ -140,6 +153,33 @@ def verdict(deviation: float, se: float, tolerance: float, seeds: int | None = N
     if math.isfinite(se) and abs(deviation) <= tolerance + noise_multiplier(seeds) * se:
         return "within noise"
     return "disagrees"
+
+
+def judged(row: dict) -> bool:
+    """Whether an agreement row (``agreement.csv``) carries a judgement (not ``beyond visibility``)."""
+    return row.get("verdict") != BEYOND_VISIBILITY
+
+
+def chart_beyond_visibility(target: str, metrics: list[dict], seeds: int | None) -> bool:
+    """Whether a checked case lies beyond its chart's visibility: a ``colorchecker`` whose contrast
+    (``contrast_radiance`` in ``metrics``, :meth:`MetricDeviation.record` dicts) is below :data:`MIN_CONTRAST` in
+    both engines — the fast engine's by two of its standard errors, Monte Carlo's within its 95 % interval
+    (:func:`noise_multiplier` of ``seeds``).  False where the contrast was not recorded."""
+    if target != "colorchecker":
+        return False
+    m = next((x for x in metrics if x.get("metric") == "contrast_radiance"), None)
+    if m is None:
+        return False
+    try:
+        fast, fast_se = float(m["fast"]), float(m.get("fast_se") or 0.0)
+        ref, ref_se = float(m["reference"]), float(m["reference_se"])
+    except (KeyError, TypeError, ValueError):
+        return False
+    if not all(math.isfinite(x) for x in (fast, ref)):
+        return False
+    ref_se = ref_se if math.isfinite(ref_se) else 0.0
+    fast_se = fast_se if math.isfinite(fast_se) else 0.0
+    return fast + 2.0 * fast_se < MIN_CONTRAST and ref - noise_multiplier(seeds) * ref_se < MIN_CONTRAST
 
 
 def relative_se(reference: float, reference_se: float) -> float:
@@ -285,7 +325,9 @@ def pooled_metric(images: list, fn) -> tuple[dict, dict]:
 
 def compare_renders(fast, references: list, target_kind: str, *,
                     fast_batches: list | None = None) -> tuple[list[RegionDeviation], list[MetricDeviation]]:
-    """Region and metric deviations of a fast-engine render from independent Monte Carlo renders.
+    """Region and metric deviations of a fast-engine render from independent Monte Carlo renders (the contrast
+    whatever its size: :func:`chart_beyond_visibility` reads it; tables leave out contrasts below
+    :data:`MIN_CONTRAST`).
 
     Parameters
     ----------
@@ -346,8 +388,7 @@ def compare_renders(fast, references: list, target_kind: str, *,
     fast_se = pooled_metric(bats, radiance_metrics)[1] if len(bats) >= 2 else {}
     metrics: list[MetricDeviation] = []
     for key in ("contrast_radiance", "backscatter_share", "speck_share"):
-        if key == "contrast_radiance" and not mref.get(key, np.nan) >= MIN_CONTRAST:
-            continue  # a contrast too small to see: its relative difference says nothing
+        # (a contrast below MIN_CONTRAST is kept here, for chart_beyond_visibility; the study's table leaves it out)
         if key == "speck_share" and not mref.get(key):
             continue
         if key in mf and np.isfinite(mref.get(key, np.nan)):
@@ -454,7 +495,9 @@ def published_agreement(water_name: str, lighting: str = "strobes", rig: str | N
 
 def write_published(rows: list[dict], path, *, settings: str, engine: str = "") -> None:
     """Write the per-lighting, per-water, per-rig, per-distance-set summary of agreement rows (``agreement.csv``
-    of studies, plus a ``lighting`` column) to ``path`` (atomically), keeping the other waters, rigs and distance
+    of studies, plus a ``lighting`` column; ``cells`` counts the judged cells, ``beyond_visibility`` the chart cells
+    of cases beyond the chart's visibility, left out of ``worst_*`` and ``beyond``; blank in rows from before
+    2026-12-06) to ``path`` (atomically), keeping the other waters, rigs and distance
     sets already there — a run at 0.5 and 6 m adds rows beside the 1 and 3 m ones; a row whose distances are all
     in a new row's is replaced by it (rows of the older tables without a ``rig`` column, which summed over rigs,
     are dropped).  ``engine``: which fast engine was measured (the benchmark writes the checkout's commit,
@@ -480,9 +523,10 @@ def write_published(rows: list[dict], path, *, settings: str, engine: str = "") 
         if r["quantity"] == "radiance":
             by[(r.get("lighting", "strobes"), r["water"], r["rig"])].append(r)
     today = datetime.date.today().isoformat()
-    for (light, water, rig), rs in by.items():
+    for (light, water, rig), every in by.items():
+        rs = [r for r in every if judged(r)] or every  # (a water whose every cell is unjudged: shown, none beyond)
         w = max(rs, key=lambda r: abs(float(r["deviation"])))
-        cases = {(r["rig"], r["target"], float(r["distance_m"])) for r in rs}
+        cases = {(r["rig"], r["target"], float(r["distance_m"])) for r in every}
         dist = ", ".join(f"{d:g}" for d in sorted({c[2] for c in cases}))
         covered = {c[2] for c in cases}
         for key in [k for k in old if k[:3] == (light, water, rig) and _distance_set(k[3]) <= covered]:
@@ -492,10 +536,11 @@ def write_published(rows: list[dict], path, *, settings: str, engine: str = "") 
             "worst_deviation": f"{float(w['deviation']):.4f}", "worst_se": f"{float(w['deviation_se']):.4f}",
             "worst_where": f"{w['region'].replace('patch:', '')}, {w['group']}, {w['target']} at "
                            f"{float(w['distance_m']):g} m",
-            "tolerance": w["tolerance"], "beyond": sum(r["verdict"] == "disagrees" for r in rs), "cells": len(rs),
+            "tolerance": w["tolerance"], "beyond": sum(r["verdict"] == "disagrees" for r in rs),
+            "cells": sum(judged(r) for r in every), "beyond_visibility": sum(not judged(r) for r in every),
             "measured": today, "engine": engine, "settings": settings}
     cols = ["lighting", "water", "rig", "cases", "distances_m", "worst_deviation", "worst_se", "worst_where", "tolerance",
-            "beyond", "cells", "measured", "engine", "settings"]
+            "beyond", "cells", "beyond_visibility", "measured", "engine", "settings"]
     buf = io.StringIO()
     buf.write("# The fast engine against Monte Carlo, per water and rig: benchmarks/bench_fast_engine_agreement.py "
               "--publish\n"

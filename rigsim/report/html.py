@@ -411,10 +411,15 @@ def trust_sentences(agreement: list[dict], render: dict) -> list[str]:
     if not agreement:
         return ["The fast engine's numbers were not checked against Monte Carlo in this study "
                 "(render.check_with_mitsuba = 0)."]
+    from rigsim.metrics.agreement import judged
+
     waters = list(dict.fromkeys(r["water"] for r in agreement))
     bad = [r for r in agreement if r["verdict"] == "disagrees" and r["quantity"] == "radiance"]
     n_cases = len({(r["rig"], r["water"], r["target"], r["distance_m"]) for r in agreement})
-    w = _worst([r for r in agreement if r["quantity"] == "radiance"])
+    w = _worst([r for r in agreement if r["quantity"] == "radiance" and judged(r)])
+    if w is None:
+        return [f"Fast engine against Monte Carlo in {n_cases} checked cases ({', '.join(waters)}): every chart "
+                f"checked lies beyond its visibility (contrast below 1 % in both engines); nothing was judged."]
     txt = (f"Fast engine against Monte Carlo in {n_cases} checked cases ({', '.join(waters)}): the largest "
            f"region difference is {w['deviation']:+.1%} ± {w['deviation_se']:.1%} ({w['region']}, {w['group']}, "
            f"{w['water']} at {w['distance_m']:g} m)")
@@ -434,7 +439,8 @@ def _cases_text(n: int) -> str:
 def trust_section(d: Path, agreement: list[dict], spec: dict) -> list[str]:
     """"How far to trust these numbers": per water, the worst deviation of each kind of region and
     metric, and the checked cases' pictures side by side."""
-    from rigsim.metrics.agreement import HEAVY_TAIL, case_key, heavy_tailed, noise_multiplier, target_tails
+    from rigsim.metrics.agreement import (BEYOND_VISIBILITY, HEAVY_TAIL, MIN_CONTRAST, case_key, heavy_tailed, judged,
+                                         noise_multiplier, target_tails)
 
     if not agreement:
         return []
@@ -448,12 +454,15 @@ def trust_section(d: Path, agreement: list[dict], spec: dict) -> list[str]:
         dists = sorted({r["distance_m"] for r in rs})
         cells = []
         for _, sel in _REGION_KINDS:
-            x = _worst([r for r in rs if sel(r["quantity"], r["region"])])
+            x = _worst([r for r in rs if sel(r["quantity"], r["region"]) and judged(r)])
+            unseen = sorted({float(r["distance_m"]) for r in rs if sel(r["quantity"], r["region"]) and not judged(r)})
+            at = (f"the chart at {', '.join(f'{d:g}' for d in unseen)} m is beyond its visibility: not judged"
+                  if unseen else "")
             if x is None:
-                cells.append("<td>—</td>")
+                cells.append(f"<td>— <small>({at})</small></td>" if unseen else "<td>—</td>")
                 continue
             colour = {"agrees": "#dfd", "within noise": "#ffd", "disagrees": "#fdd"}.get(x["verdict"], "#fff")
-            where = f"{x['region'].replace('patch:', '')}, {x['group']}, {x['distance_m']:g} m"
+            where = f"{x['region'].replace('patch:', '')}, {x['group']}, {x['distance_m']:g} m" + (f"; {at}" if at else "")
             if heavy_tailed(x.get("monte_carlo_tail")):
                 where += f"; Monte Carlo heavy-tailed: one render {float(x['monte_carlo_tail']):.2g}× the median"
             elif x["region"] != "open water" and heavy_tailed(tails.get(case_key(x))):
@@ -464,6 +473,7 @@ def trust_section(d: Path, agreement: list[dict], spec: dict) -> list[str]:
         trs.append(f"<tr><td>{html.escape(w)}</td><td>{', '.join(f'{x:g}' for x in dists)}</td>"
                    f"<td>{rs[0]['tolerance']:.0%}</td>{''.join(cells)}</tr>")
     first = agreement[0]
+    n_unseen = len({case_key(r) for r in agreement if not judged(r)})
     counts = sorted({int(r["seeds"]) for r in agreement if r.get("seeds")}) or [int(first["seeds"])]
     renders = (f"{counts[0]}" if len(counts) == 1 else
                f"{counts[0]}–{counts[-1]} (more where the first {counts[0]} left the reference noisy)")
@@ -487,6 +497,11 @@ def trust_section(d: Path, agreement: list[dict], spec: dict) -> list[str]:
            f"spread, so its standard error understates its error).  Every value is in agreement.csv "
            f"(monte_carlo_se, fast_se: the two standard errors; monte_carlo_tail: the largest render over the "
            f"median).</p>"
+           + (f"<p>{n_unseen} chart case{'s' if n_unseen > 1 else ''} lie{'' if n_unseen > 1 else 's'} beyond the "
+              f"chart's visibility: its white-against-black contrast is below {MIN_CONTRAST:.0%} in both engines (the "
+              f"fast engine's by two standard errors, Monte Carlo's within its 95 % interval).  There a patch is only "
+              f"the veil in front of it; its cells are listed in agreement.csv (verdict \"{BEYOND_VISIBILITY}\") but "
+              f"not judged, and the table's patch column leaves them out.</p>" if n_unseen else "")
            + (f"<p>{_cases_text(len({(r['rig'], r['water'], r['target'], r['distance_m']) for r in agreement if r.get('reference') == 'hybrid'}))} "
               f"referenced by the hybrid estimate instead of plain renders: each reference image "
               f"is the renders' veil (the light that met no surface) plus the chart's light traced from the rig's lights "

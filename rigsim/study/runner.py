@@ -284,27 +284,35 @@ def read_checks(spec: StudySpec, out: Path) -> list[dict]:
 
 
 def agreement_rows(checks: list[dict]) -> list[dict]:
-    """One row per checked case × region (or metric) × colour group, for agreement.csv."""
-    from rigsim.metrics.agreement import verdict
+    """One row per checked case × region (or metric) × colour group, for agreement.csv: the chart patches (and
+    contrast) of a case beyond the chart's visibility (:func:`rigsim.metrics.agreement.chart_beyond_visibility`) with the verdict
+    ``beyond visibility``; a contrast below :data:`~rigsim.metrics.agreement.MIN_CONTRAST` in Monte Carlo left
+    out (its relative difference says nothing)."""
+    from rigsim.metrics.agreement import BEYOND_VISIBILITY, MIN_CONTRAST, chart_beyond_visibility, verdict
 
     rows = []
     for rec in checks:
         base = {k: rec.get(k) for k in ("rig", "water", "target", "distance_m", "c_550_per_m", "tolerance", "width",
                                         "height", "spp", "seeds")}
         base["reference"] = rec.get("reference", "monte-carlo")
+        unseen = chart_beyond_visibility(rec.get("target"), rec["metrics"], rec.get("seeds"))
         for r in rec["regions"]:
             rows.append({**base, "quantity": "radiance", "region": r["region"], "group": r["group"],
                          "pixels": r["pixels"], "fast": r["fast"], "monte_carlo": r["reference"],
                          "monte_carlo_se": r["reference_se"], "fast_se": r.get("fast_se", 0.0),
                          "deviation": r["deviation"],
                          "deviation_se": r["deviation_se"], "monte_carlo_tail": r.get("reference_tail"),
-                         "verdict": verdict(r["deviation"], r["deviation_se"], rec["tolerance"], rec.get("seeds"))})
+                         "verdict": BEYOND_VISIBILITY if unseen and str(r["region"]).startswith("patch:") else
+                         verdict(r["deviation"], r["deviation_se"], rec["tolerance"], rec.get("seeds"))})
         for m in rec["metrics"]:
+            if m["metric"] == "contrast_radiance" and not float(m["reference"]) >= MIN_CONTRAST:
+                continue
             rows.append({**base, "quantity": m["metric"], "region": "target", "group": "luminance", "pixels": None,
                          "fast": m["fast"], "monte_carlo": m["reference"], "monte_carlo_se": m["reference_se"],
                          "fast_se": m.get("fast_se", 0.0),
                          "deviation": m["deviation"], "deviation_se": m["deviation_se"],
-                         "verdict": verdict(m["deviation"], m["deviation_se"], rec["tolerance"], rec.get("seeds"))})
+                         "verdict": BEYOND_VISIBILITY if unseen and m["metric"] == "contrast_radiance" else
+                         verdict(m["deviation"], m["deviation_se"], rec["tolerance"], rec.get("seeds"))})
     return rows
 
 

@@ -286,3 +286,85 @@ def test_the_published_line_says_when_the_reference_is_too_noisy_to_show_agreeme
     assert "too noisy" not in quiet
     beyond = dataclasses.replace(row, beyond=8, worst_se=0.02).sentence("edge")
     assert "8 of 162 region values beyond ±3% by more than the reference's noise" in beyond and "too noisy" not in beyond
+
+
+def _check(contrast_fast, contrast_fast_se, contrast_ref, contrast_ref_se, *, target="colorchecker", seeds=4):
+    """A check record (``check.json``) with two patches, the open water and the chart's contrast."""
+    region = lambda name, dev: {"region": name, "group": "blue", "pixels": 9, "fast": 1.0 + dev, "reference": 1.0,  # noqa: E731
+                                "reference_se": 0.02, "reference_tail": 1.1, "fast_se": 0.0, "deviation": dev,
+                                "deviation_se": 0.02}
+    return {"rig": "edge", "water": "jerlov-3C", "target": target, "distance_m": 6.0, "c_550_per_m": 1.0,
+            "tolerance": 0.05, "width": 96, "height": 64, "spp": 32, "seeds": seeds, "reference": "monte-carlo",
+            "regions": [region("patch:white 9.5 (.05 D)", 0.12), region("patch:cyan", -0.02),
+                        region("open water", -0.09)],
+            "metrics": [MetricDeviation("contrast_radiance", contrast_fast, contrast_ref, contrast_ref_se,
+                                        contrast_fast_se).record(),
+                        MetricDeviation("backscatter_share", 0.99, 0.99, 0.001).record()]}
+
+
+def test_a_chart_beyond_its_visibility_in_both_engines_is_listed_not_judged():
+    """Issue 18's range ends where the chart's contrast falls below 1 %: a case whose chart is below it in both
+    engines (the fast engine's by two of its SE, Monte Carlo's within its 95 % interval) keeps its patch cells,
+    verdict "beyond visibility"; the open water is judged as always.  A fast engine that lost a chart Monte Carlo
+    sees cannot move its cells out: both must agree."""
+    from rigsim.metrics.agreement import BEYOND_VISIBILITY, chart_beyond_visibility, judged
+    from rigsim.study.runner import agreement_rows
+
+    # the demo's Jerlov 3C chart at 6 m (2026-12-06): fast 0.15 +- 0.08 %, Monte Carlo 1.19 +- 0.50 % of 4 renders
+    unseen = _check(0.0015, 0.0008, 0.0119, 0.0050)
+    assert chart_beyond_visibility("colorchecker", unseen["metrics"], 4)
+    rows = agreement_rows([unseen])
+    by = {r["region"]: r for r in rows if r["quantity"] == "radiance"}
+    assert by["patch:white 9.5 (.05 D)"]["verdict"] == BEYOND_VISIBILITY == by["patch:cyan"]["verdict"]
+    assert by["patch:white 9.5 (.05 D)"]["deviation"] == 0.12  # the numbers stay in the table
+    assert by["open water"]["verdict"] == "within noise"  # -9 % +- 2 % with 4 renders: judged
+    contrast = next(r for r in rows if r["quantity"] == "contrast_radiance")  # Monte Carlo's 1.19 % is listed
+    assert contrast["verdict"] == BEYOND_VISIBILITY
+    assert [r["quantity"] for r in agreement_rows([_check(0.0015, 0.0008, 0.008, 0.002)])
+            if r["quantity"] != "radiance"] == ["backscatter_share"]  # a Monte Carlo contrast < 1 %: left out
+    assert not judged(by["patch:cyan"]) and judged(by["open water"])
+    # Monte Carlo sees the chart (3.0 +- 0.5 %): the fast engine's 0.15 % does not excuse it; judged, and the
+    # contrast is compared
+    seen = _check(0.0015, 0.0008, 0.030, 0.005)
+    assert not chart_beyond_visibility("colorchecker", seen["metrics"], 4)
+    rows = agreement_rows([seen])
+    assert {r["verdict"] for r in rows if r["region"].startswith("patch:")} == {"disagrees", "agrees"}
+    assert any(r["quantity"] == "contrast_radiance" and r["verdict"] == "disagrees" for r in rows)
+    # the fast engine sees it (2 %), Monte Carlo does not (0.3 +- 0.1 %): judged too
+    assert not chart_beyond_visibility("colorchecker", _check(0.02, 0.001, 0.003, 0.001)["metrics"], 4)
+    # the fast engine's own noise: 0.8 +- 0.2 % is not below 1 % by two SE
+    assert not chart_beyond_visibility("colorchecker", _check(0.008, 0.002, 0.005, 0.001)["metrics"], 4)
+    # Monte Carlo's interval with 8 renders (t = 2.36): 1.19 - 2.36 x 0.10 % < 1 %, 1.19 - 2.36 x 0.05 % > 1 %
+    assert chart_beyond_visibility("colorchecker", _check(0.0015, 0.0008, 0.0119, 0.0010)["metrics"], 8)
+    assert not chart_beyond_visibility("colorchecker", _check(0.0015, 0.0008, 0.0119, 0.0005)["metrics"], 8)
+    # a disk is not a chart; a record without the contrast is judged
+    assert not chart_beyond_visibility("black-disk", unseen["metrics"], 4)
+    assert not chart_beyond_visibility("colorchecker", unseen["metrics"][1:], 4)
+
+
+def test_the_published_table_and_the_report_leave_cells_beyond_visibility_out_of_the_worst(tmp_path, monkeypatch):
+    import rigsim.data
+    from rigsim.metrics.agreement import PUBLISHED_TABLE, published_agreement, write_published
+    from rigsim.report.html import trust_section, trust_sentences
+    from rigsim.study.runner import agreement_rows
+
+    monkeypatch.setattr(rigsim.data, "DATA_DIR", tmp_path)
+    path = tmp_path / PUBLISHED_TABLE
+    near = _check(0.5, 0.001, 0.5, 0.001)
+    near["distance_m"] = 1.0
+    rows = [{**r, "lighting": "strobes"} for r in agreement_rows([near, _check(0.0015, 0.0008, 0.0119, 0.0050)])]
+    write_published(rows, path, settings="test")
+    row = published_agreement("jerlov-3C", rig="edge")
+    # 4 judged radiance cells (the 1 m chart's two patches and both open waters), the 6 m chart's 2 patches not;
+    # the worst is the 1 m white patch (+12 %), where the chart is seen
+    assert (row.worst_deviation, row.cases, row.cells, row.beyond) == (0.12, 2, 4, 1)
+    text = path.read_text()
+    assert ",4,2," in text  # cells 4, beyond_visibility 2
+    # the report: the patch column's worst is the 1 m chart's; the 6 m chart is named as beyond its visibility
+    html = "".join(trust_section(tmp_path, [{**r, "distance_m": float(r["distance_m"])} for r in rows], {}))
+    assert "the chart at 6 m is beyond its visibility: not judged" in html
+    assert "1 chart case lies beyond the chart's visibility" in html
+    assert "+12.0%" in trust_sentences(rows, {"engine": "preview"})[0]
+    # a study whose only chart is beyond its visibility: the open water is still the worst judged region
+    far_only = [{**r, "lighting": "strobes"} for r in agreement_rows([_check(0.0015, 0.0008, 0.0119, 0.0050)])]
+    assert "-9.0%" in trust_sentences(far_only, {"engine": "preview"})[0]
