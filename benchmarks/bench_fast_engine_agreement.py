@@ -132,14 +132,28 @@ ENGINE_PATHS = ("rigsim/preview", "rigsim/water", "rigsim/light", "rigsim/scene"
                 ":(exclude)data/fast_engine")
 
 
+#: Commits that changed only how the checks judge their cells or size their references — not the fast engine, nor
+#: the scenes and renders it is compared with: a row measured before them is still this engine's measurement (its
+#: ``beyond_visibility`` is blank where it was judged before the visibility rule: every cell judged, the stricter way).
+CHECK_ONLY_COMMITS: dict[str, str] = {}
+
+
 def _same_engine(commit: str) -> bool:
-    """Whether the fast engine and the check of ``commit`` are this checkout's (no change since in
-    :data:`ENGINE_PATHS`, the working tree's edits included)."""
+    """Whether the fast engine and the check of ``commit`` are this checkout's: no change since in
+    :data:`ENGINE_PATHS` (the working tree's edits included), or only the commits of :data:`CHECK_ONLY_COMMITS`."""
     import subprocess
 
+    def git(*a):
+        return subprocess.run(["git", "-C", str(ROOT), *a], capture_output=True, text=True, timeout=60)
+
     try:
-        return subprocess.run(["git", "-C", str(ROOT), "diff", "--quiet", commit, "--", *ENGINE_PATHS],
-                              capture_output=True, timeout=60).returncode == 0
+        if git("diff", "--quiet", commit, "--", *ENGINE_PATHS).returncode == 0:
+            return True
+        if not CHECK_ONLY_COMMITS or git("diff", "--quiet", "HEAD", "--", *ENGINE_PATHS).returncode != 0:
+            return False  # (uncommitted edits of the engine)
+        since = git("rev-list", f"{commit}..HEAD", "--", *ENGINE_PATHS)
+        return since.returncode == 0 and all(any(c.startswith(k) for k in CHECK_ONLY_COMMITS)
+                                             for c in since.stdout.split())
     except (OSError, subprocess.SubprocessError):
         return False
 
@@ -167,6 +181,10 @@ def print_status(path: Path = PUBLISHED) -> int:
     engines = ", ".join(sorted({r['engine'].removeprefix('commit ') for r in cur}))
     print(f"  this checkout's fast engine{f' (measured at {engines})' if engines else ''}: {len(cur)} rows, "
           f"{n(cur, 'cells')} cells, {n(cur, 'beyond')} beyond, {over(cur)} rows with a worst cell beyond its tolerance")
+    before_rule = [r for r in cur if not (r.get("beyond_visibility") or "").strip()]
+    if before_rule:
+        print(f"    of them judged before the visibility rule (every chart cell judged, also where the chart cannot be "
+              f"seen): {len(before_rule)} rows")
     print(f"  earlier engines (blank: before the column, 2026-12-06): {len(old)} rows, {n(old, 'cells')} cells, "
           f"{n(old, 'beyond')} beyond; to make again:")
     groups: dict[tuple[str, str], list[str]] = defaultdict(list)

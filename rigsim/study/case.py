@@ -202,7 +202,7 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
     """
     import time
 
-    from rigsim.metrics.agreement import compare_renders, relative_se, tolerance_for
+    from rigsim.metrics.agreement import chart_beyond_visibility, compare_renders, relative_se, tolerance_for
     from rigsim.preview import render_photon_batches, render_preview
     from rigsim.render import render
 
@@ -263,8 +263,12 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
     regions, metrics = compare_renders(fast, refs, target_kind, fast_batches=fast_batches)
     pilot = None
     if (ck.max_seeds or ck.seeds) > ck.seeds:  # two stages (CheckSettings): the pilot's noise sets the count
-        # (the reference's noise alone: more renders do not change the fast engine's)
-        se = np.array([relative_se(r.reference, r.reference_se) for r in regions], float)
+        # (the reference's noise alone: more renders do not change the fast engine's), over the regions that will
+        # be judged: a chart the pilot puts beyond its visibility in both engines gets no more renders for its
+        # patches (chart_beyond_visibility; the demo's Jerlov 3C chart at 6 m would take 24 renders for them)
+        unseen = chart_beyond_visibility(target_kind, [m.record() for m in metrics], len(refs))
+        se = np.array([relative_se(r.reference, r.reference_se) for r in regions
+                       if not (unseen and r.region.startswith("patch:"))], float)
         se = se[np.isfinite(se)]
         pilot = {"seeds": ck.seeds, "se_p90": float(np.percentile(se, 90)) if se.size else float("nan")}
         n = ck.renders_for(pilot["se_p90"], hybrid=hybrid)

@@ -368,3 +368,27 @@ def test_the_published_table_and_the_report_leave_cells_beyond_visibility_out_of
     # a study whose only chart is beyond its visibility: the open water is still the worst judged region
     far_only = [{**r, "lighting": "strobes"} for r in agreement_rows([_check(0.0015, 0.0008, 0.0119, 0.0050)])]
     assert "-9.0%" in trust_sentences(far_only, {"engine": "preview"})[0]
+
+
+def test_a_row_measured_before_commits_that_changed_only_the_check_is_still_this_engines(tmp_path, capsys,
+                                                                                         monkeypatch):
+    """``CHECK_ONLY_COMMITS``: commits that changed how cells are judged (the visibility rule), not the fast
+    engine; a row measured before them is this engine's, one measured before any other engine change is not."""
+    import importlib.util
+    import subprocess
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    git = lambda *a: subprocess.run(["git", "-C", str(root), *a], capture_output=True, text=True)  # noqa: E731
+    spec = importlib.util.spec_from_file_location("bench_agreement2", root / "benchmarks" / "bench_fast_engine_agreement.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    changes = git("rev-list", "HEAD", "--", *bench.ENGINE_PATHS).stdout.split()
+    if len(changes) < 3 or git("diff", "--quiet", "HEAD", "--", *bench.ENGINE_PATHS).returncode != 0:
+        pytest.skip("needs a git checkout without uncommitted engine edits and a history of engine changes")
+    before_last = changes[1]  # measured before the last engine change
+    monkeypatch.setattr(bench, "CHECK_ONLY_COMMITS", {})
+    assert not bench._same_engine(before_last)
+    monkeypatch.setattr(bench, "CHECK_ONLY_COMMITS", {changes[0][:7]: "the last change, called check-only here"})
+    assert bench._same_engine(before_last)
+    assert not bench._same_engine(changes[2])  # two changes back: the second is not check-only

@@ -98,6 +98,30 @@ def test_two_stage_checks_take_more_renders_only_where_the_first_are_too_noisy(t
         assert rec["seeds"] == want and rec["pilot"]["seeds"] == 2 and rec["pilot"]["se_p90"] > 0
 
 
+def test_a_chart_beyond_its_visibility_takes_no_more_renders_for_its_patches(tmp_path):
+    """A chart in Jerlov 9C at 6 m cannot be seen (its contrast far below 1 % in both engines): its patches are
+    listed, not judged (verdict "beyond visibility"), and the two-stage reference sizes itself on the regions that
+    are judged — the open water — not on the patches' noise."""
+    from rigsim.metrics.agreement import BEYOND_VISIBILITY, relative_se
+    from rigsim.study.case import compute_check
+    from rigsim.study.runner import agreement_rows
+
+    spec = load_study(fast_study(tmp_path, waters='["jerlov-9C"]', distances="[6.0]", targets='["colorchecker"]',
+                                 render_extra='check_with_mitsuba = 1\nmultiple_scattering = "off"',
+                                 extra="\n[check]\nwidth = 24\nheight = 16\nspp = 4\nseeds = 2\nmax_seeds = 5\n"
+                                       "target_se = 1.0\n"))
+    # (multiple scattering off: at 24 x 16 its photon noise alone would leave the fast contrast's 2-SE bound above 1 %)
+    rec = compute_check(spec, spec.check_cases()[0])["record"]
+    rows = agreement_rows([rec])
+    patches = [r for r in rows if r["region"].startswith("patch:")]
+    assert patches and {r["verdict"] for r in patches} == {BEYOND_VISIBILITY}
+    assert {r["verdict"] for r in rows if r["region"] == "open water"} <= {"agrees", "within noise", "disagrees"}
+    judged = [relative_se(r["reference"], r["reference_se"]) for r in rec["regions"] if not r["region"].startswith("patch:")]
+    every = [relative_se(r["reference"], r["reference_se"]) for r in rec["regions"]]
+    assert rec["seeds"] == 2 and rec["pilot"]["se_p90"] == pytest.approx(float(np.percentile(judged, 90)))
+    assert float(np.percentile(every, 90)) > rec["pilot"]["se_p90"]  # the patches' noise would have asked for more
+
+
 def test_hybrid_max_seeds_caps_the_hybrid_cases_alone(tmp_path):
     """[check] hybrid_max_seeds: the cases referenced by hybrid images take at most that many, every other case
     keeps max_seeds (a black disk in a hybrid study is referenced by renders: with a target SE it cannot reach it
