@@ -425,6 +425,9 @@ class PublishedAgreement:
     settings: str
     rig: str
     engine: str = ""  #: the fast engine measured ("commit 692f13b", "-dirty" if it differed); "" in rows before 2026-12-06
+    #: chart cells of cases beyond the chart's visibility (listed, not judged; :func:`chart_beyond_visibility`);
+    #: None in rows judged before the rule (every cell judged)
+    beyond_visibility: int | None = None
 
     def sentence(self, rig: str | None = None) -> str:
         """One line for a user: how far the fast engine's picture of this water is from Monte Carlo.
@@ -435,6 +438,8 @@ class PublishedAgreement:
         if self.worst_se > self.tolerance:  # "within noise" then says little: say so
             tail += (f"; the Monte Carlo reference is too noisy there (± {self.worst_se:.0%}) to show agreement "
                      f"within ±{self.tolerance:.0%}")
+        if self.beyond_visibility:
+            tail += f" ({self.beyond_visibility} chart cells where the chart cannot be seen not judged)"
         other = f" (not checked with {rig}: these numbers are the {self.rig} rig's)" if rig and rig != self.rig else ""
         return (f"fast engine vs Monte Carlo in {self.water} ({self.lighting}, {self.rig}, {self.cases} cases at "
                 f"{self.distances_m} m): worst region {self.worst_deviation:+.1%} ± {self.worst_se:.1%} "
@@ -479,6 +484,17 @@ def published_agreement(water_name: str, lighting: str = "strobes", rig: str | N
     engines = cols.get("engine")
     if engines is None or engines.dtype.kind != "U":  # no column, or only blank cells (read as NaN)
         engines = [""] * len(cols["water"])
+    unseen = cols.get("beyond_visibility")
+
+    def _count(i):  # blank (a row judged before the rule) or no column: None
+        if unseen is None:
+            return None
+        try:
+            v = float(unseen[i])
+        except (TypeError, ValueError):
+            return None
+        return int(v) if math.isfinite(v) else None
+
     found = []
     for i in range(len(cols["water"])):
         if cols["water"][i] == water_name and cols["lighting"][i] == lighting:
@@ -488,7 +504,7 @@ def published_agreement(water_name: str, lighting: str = "strobes", rig: str | N
                 worst_se=float(cols["worst_se"][i]), worst_where=str(cols["worst_where"][i]),
                 tolerance=float(cols["tolerance"][i]), beyond=int(cols["beyond"][i]), cells=int(cols["cells"][i]),
                 measured=str(cols["measured"][i]), settings=str(cols["settings"][i]),
-                rig=str(cols["rig"][i]), engine=str(engines[i])))
+                rig=str(cols["rig"][i]), engine=str(engines[i]), beyond_visibility=_count(i)))
     same = [p for p in found if rig and p.rig == rig]  # the rig's rows (one per distance set): the worst of them
     return max(same or found, key=lambda p: abs(p.worst_deviation), default=None)
 

@@ -360,6 +360,8 @@ def test_the_published_table_and_the_report_leave_cells_beyond_visibility_out_of
     assert (row.worst_deviation, row.cases, row.cells, row.beyond) == (0.12, 2, 4, 1)
     text = path.read_text()
     assert ",4,2," in text  # cells 4, beyond_visibility 2
+    assert row.beyond_visibility == 2 and "2 chart cells where the chart cannot be seen not judged" in row.sentence("edge")
+    assert published_agreement("coastal") is None
     # the report: the patch column's worst is the 1 m chart's; the 6 m chart is named as beyond its visibility
     html = "".join(trust_section(tmp_path, [{**r, "distance_m": float(r["distance_m"])} for r in rows], {}))
     assert "the chart at 6 m is beyond its visibility: not judged" in html
