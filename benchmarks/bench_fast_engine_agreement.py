@@ -14,6 +14,9 @@ Prints, per water: the worst deviation of each kind of region and per colour gro
 standard error and the tolerance (3 % clear water, 5 % elsewhere); then the worst cells overall
 and the count of cells beyond tolerance + the difference's 95 % half-width (Student's t · SE for the seeds; the SE
 holds the reference's noise and the fast engine's own, from its photon batches).  Everything is in ``<out>/*/agreement.csv``.
+The range ends where the chart can no longer be seen: the patches of a chart case whose contrast is below 1 % in both
+engines are listed (verdict "beyond visibility", the published table's ``beyond_visibility``) but not judged
+(:func:`rigsim.metrics.agreement.chart_beyond_visibility`).
 
     python benchmarks/bench_fast_engine_agreement.py                       # everything: hours on 2 cores
     python benchmarks/bench_fast_engine_agreement.py --quick               # 3 waters, 2 distances, 1 rig
