@@ -343,7 +343,8 @@ def _f(x) -> float:
 def print_table(rows: list[dict]) -> None:
     """Per lighting and water: the worst deviation of each kind (and colour group), then the worst cells.  The
     chart cells of cases beyond the chart's visibility (verdict "beyond visibility") are counted, not judged."""
-    from rigsim.metrics.agreement import HEAVY_TAIL, MIN_CONTRAST, case_key, heavy_tailed, judged, target_tails
+    from rigsim.metrics.agreement import (HEAVY_TAIL, MIN_CONTRAST, case_key, heavy_tailed, judged, noise_multiplier,
+                                         pooled_patches, target_tails)
 
     unseen = [r for r in rows if not judged(r)]
     rows = [r for r in rows if judged(r)]
@@ -388,6 +389,19 @@ def print_table(rows: list[dict]) -> None:
           f"{n_tail} of them with a heavy-tailed reference (one render >= {HEAVY_TAIL:g}x the median), {n_case} "
           f"target cells in a case whose target's reference is heavy-tailed in some region (that reference may "
           f"have missed the rare paths: bench_reference_convergence.py renders such a case until it converges)")
+    pooled = pooled_patches(rows)
+    if pooled:
+        pooled.sort(key=lambda p: -abs(p["mean"]))
+        off = [p for p in pooled if abs(p["mean"]) > float(p["tolerance"]) + noise_multiplier(p["seeds"]) * p["se"]]
+        within = sum(abs(p["mean"]) <= float(p["tolerance"]) for p in pooled)
+        ratio = sorted(p["chi2"] / p["dof"] for p in pooled if p["dof"] > 0)
+        print(f"\neach chart's patches pooled per colour group (inverse-variance mean of their deviations): {len(pooled)} "
+              f"charts x groups, {within} within tolerance, {len(off)} beyond tolerance + t*SE; the cells' scatter "
+              f"about the mean, chi2/dof: median {ratio[len(ratio) // 2]:.2f}, 90th percentile "
+              f"{ratio[int(0.9 * (len(ratio) - 1))]:.2f} (1: the cells differ by their noise alone)" if ratio else "")
+        for p in pooled[:8]:
+            print(f"  {p['mean']:+7.1%} ± {p['se']:.1%}  chi2/dof {p['chi2'] / max(p['dof'], 1):5.2f}  {p['lighting']}, "
+                  f"{p['rig']}, {p['water']}, {p['target']} at {_f(p['distance_m']):g} m, {p['group']}")
     if unseen:
         cases = sorted({(r["lighting"], r["rig"], r["water"], _f(r["distance_m"])) for r in unseen})
         print(f"beyond the chart's visibility (its contrast below {MIN_CONTRAST:.0%} in both engines; listed in "

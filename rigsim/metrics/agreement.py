@@ -67,7 +67,7 @@ __all__ = ["RegionDeviation", "MetricDeviation", "CLEAR_WATERS", "MIN_CONTRAST",
            "published_agreement", "write_published", "PUBLISHED_TABLE", "tolerance_for", "comparison_regions",
            "compare_renders", "verdict", "noise_multiplier", "relative_se", "HEAVY_TAIL", "heavy_tailed",
            "case_key", "target_tails", "mean_image", "pooled_metric", "BEYOND_VISIBILITY", "chart_beyond_visibility",
-           "judged"]
+           "judged", "pooled_patches"]
 
 #: Waters in which the fast engine should agree within 3 % (Jerlov's oceanic types I–III and the
 #: original write-up's clear waters); elsewhere 5 %.
@@ -158,6 +158,40 @@ def verdict(deviation: float, se: float, tolerance: float, seeds: int | None = N
 def judged(row: dict) -> bool:
     """Whether an agreement row (``agreement.csv``) carries a judgement (not ``beyond visibility``)."""
     return row.get("verdict") != BEYOND_VISIBILITY
+
+
+def pooled_patches(rows: list[dict]) -> list[dict]:
+    """Per checked chart and colour group, its judged patch cells pooled: the inverse-variance mean of their
+    deviations ``mean`` ± ``se`` (a bias common to the patches, with their noise averaged down), and the cells'
+    scatter about it, ``chi2`` with ``dof`` = cells − 1 (``chi2 / dof`` near 1: the cells differ by their noise
+    alone; well above 1: the fast engine errs differently on different patches, or a reference is heavy-tailed).
+
+    ``rows``: agreement rows (``agreement.csv``).  A chart whose cells are each within noise but whose pooled mean
+    is beyond its tolerance is off as a whole; one whose pooled mean is within it and whose ``chi2 / dof`` is near 1
+    agrees, its worst cells being the largest of many noisy draws."""
+    from collections import defaultdict
+
+    by = defaultdict(list)
+    for r in rows:
+        if r.get("quantity") != "radiance" or not str(r.get("region", "")).startswith("patch:") or not judged(r):
+            continue
+        try:
+            d, s = float(r["deviation"]), float(r["deviation_se"])
+        except (KeyError, TypeError, ValueError):
+            continue
+        if math.isfinite(d) and math.isfinite(s) and s > 0:
+            by[case_key(r) + (r.get("group"),)].append((d, s, r))
+    out = []
+    for key, cells in by.items():
+        d = np.array([c[0] for c in cells])
+        w = 1.0 / np.array([c[1] for c in cells]) ** 2
+        mean = float((w * d).sum() / w.sum())
+        first = cells[0][2]
+        out.append({"lighting": key[0], "rig": key[1], "water": key[2], "target": key[3], "distance_m": key[4],
+                    "group": key[5], "tolerance": first.get("tolerance"), "seeds": first.get("seeds"),
+                    "cells": len(cells), "mean": mean, "se": float(1.0 / math.sqrt(w.sum())),
+                    "chi2": float((w * (d - mean) ** 2).sum()), "dof": len(cells) - 1})
+    return out
 
 
 def chart_beyond_visibility(target: str, metrics: list[dict], seeds: int | None) -> bool:

@@ -394,3 +394,25 @@ def test_a_row_measured_before_commits_that_changed_only_the_check_is_still_this
     monkeypatch.setattr(bench, "CHECK_ONLY_COMMITS", {changes[0][:7]: "the last change, called check-only here"})
     assert bench._same_engine(before_last)
     assert not bench._same_engine(changes[2])  # two changes back: the second is not check-only
+
+
+def test_a_charts_patches_pool_to_an_inverse_variance_mean_and_a_chi2_of_their_scatter():
+    from rigsim.metrics.agreement import pooled_patches
+
+    def row(region, dev, se, group="blue", verdict="agrees", distance=1.0):
+        return {"lighting": "strobes", "rig": "edge", "water": "jerlov-III", "target": "colorchecker",
+                "distance_m": distance, "quantity": "radiance", "region": region, "group": group, "deviation": dev,
+                "deviation_se": se, "tolerance": 0.03, "seeds": 8, "verdict": verdict}
+
+    rows = [row("patch:a", 0.02, 0.01), row("patch:b", 0.04, 0.02), row("patch:c", -0.01, 0.01),
+            row("open water", 0.5, 0.01),  # not a patch
+            row("patch:a", 0.3, 0.01, group="red", verdict="beyond visibility"),  # not judged
+            row("patch:b", 0.01, 0.01, group="red")]
+    pooled = {p["group"]: p for p in pooled_patches(rows)}
+    w = np.array([1e4, 2.5e3, 1e4])
+    d = np.array([0.02, 0.04, -0.01])
+    mean = (w * d).sum() / w.sum()
+    blue = pooled["blue"]
+    assert blue["mean"] == pytest.approx(mean) and blue["se"] == pytest.approx(1 / np.sqrt(w.sum()))
+    assert blue["chi2"] == pytest.approx((w * (d - mean) ** 2).sum()) and blue["dof"] == 2 and blue["cells"] == 3
+    assert (pooled["red"]["cells"], pooled["red"]["mean"], pooled["red"]["dof"]) == (1, 0.01, 0)
