@@ -409,5 +409,16 @@ def print_table(rows: list[dict]) -> None:
               + "; ".join(f"{c[2]} {c[3]:g} m ({c[1]})" for c in cases))
 
 
+def _main() -> int:
+    """``main``, ending quietly where the reader of its output closed it early (``--status | head``)."""
+    import os
+
+    try:
+        return main()
+    except BrokenPipeError:
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # (Python flushes stdout again at exit)
+        return 1
+
+
 if __name__ == "__main__":
-    raise SystemExit(main())
+    raise SystemExit(_main())

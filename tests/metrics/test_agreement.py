@@ -416,3 +416,15 @@ def test_a_charts_patches_pool_to_an_inverse_variance_mean_and_a_chi2_of_their_s
     assert blue["mean"] == pytest.approx(mean) and blue["se"] == pytest.approx(1 / np.sqrt(w.sum()))
     assert blue["chi2"] == pytest.approx((w * (d - mean) ** 2).sum()) and blue["dof"] == 2 and blue["cells"] == 3
     assert (pooled["red"]["cells"], pooled["red"]["mean"], pooled["red"]["dof"]) == (1, 0.01, 0)
+
+
+def test_the_benchmark_status_read_through_a_closed_pipe_ends_without_a_traceback():
+    """``bench_fast_engine_agreement.py --status | head``: the reader leaves early; no traceback."""
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    r = subprocess.run(f"{sys.executable} {root / 'benchmarks' / 'bench_fast_engine_agreement.py'} --status | true",
+                       shell=True, capture_output=True, text=True, timeout=120)
+    assert "Traceback" not in r.stderr and "BrokenPipeError" not in r.stderr, r.stderr
