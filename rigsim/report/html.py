@@ -411,7 +411,7 @@ def trust_sentences(agreement: list[dict], render: dict) -> list[str]:
     if not agreement:
         return ["The fast engine's numbers were not checked against Monte Carlo in this study "
                 "(render.check_with_mitsuba = 0)."]
-    from rigsim.metrics.agreement import judged
+    from rigsim.metrics.agreement import MIN_CONTRAST, judged
 
     waters = list(dict.fromkeys(r["water"] for r in agreement))
     bad = [r for r in agreement if r["verdict"] == "disagrees" and r["quantity"] == "radiance"]
@@ -419,7 +419,7 @@ def trust_sentences(agreement: list[dict], render: dict) -> list[str]:
     w = _worst([r for r in agreement if r["quantity"] == "radiance" and judged(r)])
     if w is None:
         return [f"Fast engine against Monte Carlo in {n_cases} checked cases ({', '.join(waters)}): every chart "
-                f"checked lies beyond its visibility (contrast below 1 % in both engines); nothing was judged."]
+                f"checked lies beyond its visibility (contrast below {MIN_CONTRAST:.0%} in both engines); nothing was judged."]
     txt = (f"Fast engine against Monte Carlo in {n_cases} checked cases ({', '.join(waters)}): the largest "
            f"region difference is {w['deviation']:+.1%} ± {w['deviation_se']:.1%} ({w['region']}, {w['group']}, "
            f"{w['water']} at {w['distance_m']:g} m)")
