@@ -94,7 +94,7 @@ hybrid_photons = {hybrid_photons}
 hybrid_spp = {hybrid_spp}
 hybrid_veil_renders = {hybrid_veil}
 hybrid_veil_sigma_px = {hybrid_sigma}
-{hybrid_max}"""
+{hybrid_order}{hybrid_max}"""
 
 
 def _list(text: str) -> list[str]:
@@ -244,6 +244,9 @@ def main(argv=None) -> int:
     ap.add_argument("--hybrid-veil-sigma-px", type=float, default=4.0,
                     help="kernel (px) of the local quadratic that pools each hybrid image's veil over the chart "
                          "(rigsim.render.hybrid.smooth_chart_veil; 0: each pixel's own)")
+    ap.add_argument("--hybrid-order", type=int, default=None,
+                    help="order of the polynomial fitted to the chart's light-traced irradiance (default "
+                         "rigsim.render.hybrid.DEFAULT_FIT_ORDER, 4; until 2026-12-06: 2)")
     ap.add_argument("--hybrid-max-seeds", type=int, default=None,
                     help="--max-seeds for the hybrid cases alone (the disk and daylight cases keep --max-seeds)")
     ap.add_argument("--status", action="store_true",
@@ -283,6 +286,8 @@ def main(argv=None) -> int:
                                   hybrid_photons=args.hybrid_photons, hybrid_spp=args.hybrid_spp,
                                   hybrid_veil=args.hybrid_veil_renders,
                                   hybrid_sigma=args.hybrid_veil_sigma_px,
+                                  hybrid_order=(f"hybrid_order = {args.hybrid_order}\n"
+                                                if args.hybrid_order is not None else ""),
                                   hybrid_max=(f"hybrid_max_seeds = {args.hybrid_max_seeds}\n"
                                               if args.hybrid_max_seeds is not None else "")).replace("'", '"'))
         try:
@@ -317,12 +322,15 @@ def main(argv=None) -> int:
         return 1
     if args.publish:
         from rigsim.metrics.agreement import write_published
+        from rigsim.render.hybrid import DEFAULT_FIT_ORDER
 
         depths = ", ".join(f"{float(d):g}" for d in _list(args.depths))
         ms = "" if args.multiple_scattering == "off" else f", multiple scattering {args.multiple_scattering}"
         hyb = (f", charts lit by the rig's lights referenced by the hybrid estimate ({args.hybrid_photons} photons, "
                f"{args.hybrid_spp} spp per band, "
                f"{'' if args.hybrid_max_seeds is None else f'up to {args.hybrid_max_seeds} images, '}"
+               f"the chart's irradiance fitted by a polynomial of order "
+               f"{DEFAULT_FIT_ORDER if args.hybrid_order is None else args.hybrid_order}, "
                f"{args.hybrid_veil_renders} renders' veil per image, pooled over the "
                f"chart by a {args.hybrid_veil_sigma_px:g}-px local quadratic)"
                if args.reference == "hybrid" else "")

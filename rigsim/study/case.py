@@ -233,9 +233,10 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
                 _write_render(f, img)
         return img
 
-    from rigsim.render.hybrid import hybrid_group
+    from rigsim.render.hybrid import DEFAULT_FIT_ORDER, hybrid_group
 
     group = hybrid_group(scene)
+    fit_order = DEFAULT_FIT_ORDER if ck.hybrid_order is None else ck.hybrid_order
     hybrid = ck.reference == "hybrid" and group is not None
 
     def reference(i):
@@ -249,7 +250,7 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
 
         k = ck.hybrid_veil_renders
         img = mean_image([mc(i * k + j) for j in range(k)])
-        hs = HybridSettings(photons=ck.hybrid_photons, spp=ck.hybrid_spp)
+        hs = HybridSettings(photons=ck.hybrid_photons, spp=ck.hybrid_spp, order=fit_order)
         f = None if keep is None else keep / f"{hs.key()}-{i:03d}.npz"
         refl = _read_array(f, (ck.height, ck.width, len(wl)))
         if refl is None:
@@ -283,7 +284,8 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
               "spp": ck.spp, "seeds": len(refs), "pilot": pilot, "integrator": ck.integrator,
               "reference": "hybrid" if hybrid else "monte-carlo",
               "hybrid": {"photons": ck.hybrid_photons, "spp": ck.hybrid_spp,
-                         "veil_renders": ck.hybrid_veil_renders, "veil_sigma_px": ck.hybrid_veil_sigma_px}
+                         "veil_renders": ck.hybrid_veil_renders, "veil_sigma_px": ck.hybrid_veil_sigma_px,
+                         "order": fit_order}
               if hybrid else None,
               "fast_wall_time_s": t_fast, "monte_carlo_wall_time_s": t_mc,
               "regions": [r.record() for r in regions], "metrics": [m.record() for m in metrics]}

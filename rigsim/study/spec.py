@@ -46,6 +46,8 @@
     hybrid_veil_renders = 4 # renders whose veil (backscatter layer) each hybrid image averages
     hybrid_veil_sigma_px = 4.0  # the veil over the chart pooled by a local quadratic, Gaussian kernel of this
                             # many pixels (rigsim.render.hybrid.smooth_chart_veil); 0: each pixel's own
+    hybrid_order = 4        # optional: order of the polynomial fitted to the chart's light-traced irradiance (0-6;
+                            # default rigsim.render.hybrid.DEFAULT_FIT_ORDER)
     hybrid_max_seeds = 8    # optional: max_seeds for the hybrid cases alone (the others keep max_seeds)
 
     [sweep]
@@ -152,6 +154,10 @@ class CheckSettings:
     #: neighbouring ones its noise fell 1.6–1.9× in Jerlov 7C; its bias on the fast engine's veil ≤ 0.6 % of a
     #: patch); 0 keeps each pixel's own.
     hybrid_veil_sigma_px: float = 4.0
+    #: Order of the polynomial fitted to the chart's light-traced irradiance
+    #: (None: :data:`rigsim.render.hybrid.DEFAULT_FIT_ORDER`; order 2 missed the direct beam's shape on a chart by up to
+    #: 4 %).
+    hybrid_order: int | None = None
     #: The cap of ``max_seeds`` for the hybrid cases alone (a hybrid image costs a light trace and a camera pass
     #: besides its renders); the other cases keep ``max_seeds``.  None: ``max_seeds`` for all.  (With one cap
     #: for all, 8, an edge-lit Jerlov 9C black disk's reference fell from 32 renders to 4-8 and its open water's
@@ -250,7 +256,8 @@ class StudySpec:
         """Stable id of a case's Monte Carlo check (the case's id + a hash of the check settings)."""
         ck = asdict(self.check)
         if ck["reference"] == "monte-carlo":  # the ids of checks made before the hybrid reference existed stay
-            for k in ("reference", "hybrid_photons", "hybrid_spp", "hybrid_veil_renders", "hybrid_veil_sigma_px"):
+            for k in ("reference", "hybrid_photons", "hybrid_spp", "hybrid_veil_renders", "hybrid_veil_sigma_px",
+                      "hybrid_order"):
                 ck.pop(k)
         h = hashlib.sha1(json.dumps(ck, sort_keys=True).encode()).hexdigest()[:6]
         return f"{self.case_id(case)}__check-{h}"
@@ -433,6 +440,7 @@ class CheckTable(FileModel):
     hybrid_spp: Annotated[Int, Field(ge=1, le=65_536)] = 64
     hybrid_veil_renders: Annotated[Int, Field(ge=1, le=256)] = 4
     hybrid_veil_sigma_px: Annotated[Real, Field(ge=0.0, le=64.0)] = 4.0
+    hybrid_order: Annotated[Int, Field(ge=0, le=6)] | None = None
     hybrid_max_seeds: Annotated[Int, Field(ge=2, le=1024)] | None = None
 
     @model_validator(mode="after")
@@ -449,7 +457,8 @@ class CheckTable(FileModel):
                              integrator=self.integrator, max_seeds=self.max_seeds, target_se=self.target_se,
                              reference=self.reference, hybrid_photons=self.hybrid_photons,
                              hybrid_spp=self.hybrid_spp, hybrid_veil_renders=self.hybrid_veil_renders,
-                             hybrid_veil_sigma_px=self.hybrid_veil_sigma_px, hybrid_max_seeds=self.hybrid_max_seeds)
+                             hybrid_veil_sigma_px=self.hybrid_veil_sigma_px, hybrid_order=self.hybrid_order,
+                             hybrid_max_seeds=self.hybrid_max_seeds)
 
 
 class CaptureTable(FileModel):

@@ -386,8 +386,10 @@ def test_a_hybrid_check_references_the_chart_by_light_tracing_and_keeps_its_part
     assert spec.check_id(case) != plain.check_id(plain.check_cases()[0])
     cache = tmp_path / "mc"
     rec = compute_check(spec, case, render_cache=cache)["record"]
+    from rigsim.render.hybrid import DEFAULT_FIT_ORDER
+
     assert rec["reference"] == "hybrid" and rec["hybrid"] == {"photons": 20000, "spp": 1, "veil_renders": 2,
-                                                              "veil_sigma_px": 4.0}
+                                                              "veil_sigma_px": 4.0, "order": DEFAULT_FIT_ORDER}
     assert len(list(cached_render_dir(cache, spec, case).glob("render-*/spectral.npz"))) == 4  # 2 veils each
     assert len(calls) == 2 and len(set(calls)) == 2  # one independent estimate per reference image
     kept = sorted(cached_render_dir(cache, spec, case).glob("hybrid-*.npz"))
