@@ -143,6 +143,7 @@ CHECK_ONLY_COMMITS: dict[str, str] = {
     "db334ac": "two-stage references sized on the regions that will be judged",
     "4bf50e6": "the published line names the cells not judged",
     "fcec5ec": "each chart's patches pooled per colour group (printed only)",
+    "b23ae01": "the hybrid reference's chart fit of order 4 (the references of later runs, not the fast engine)",
 }
 
 
