@@ -37,6 +37,19 @@ def disk_scene(water, lights, *, distance=1.5, size=2.0, reflectance=1.0, camera
     return Scene(Rig("test", camera or make_camera(), tuple(lights)), water, (t,))
 
 
+def light_geometry(light: Light, points: np.ndarray, normal: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(f(θ) cos θᵢ / r², r)`` of a point light at ``points`` (…, 3) on a surface whose lit side faces ``normal``
+    (3,) or (…, 3): the beam pattern at the angle from its aim, the cosine of incidence (0 from behind) and the
+    distance (m).  Times ``I(λ) e^{−c r}`` it is the exact direct irradiance."""
+    v = np.asarray(points, float) - np.asarray(light.position_m, float)
+    r = np.linalg.norm(v, axis=-1)
+    vhat = v / r[..., None]
+    axis = np.asarray(light.aim, float) / np.linalg.norm(light.aim)
+    f = light.beam.relative_intensity(np.arccos(np.clip(vhat @ axis, -1, 1)))
+    cos_i = np.clip(-np.sum(vhat * np.asarray(normal, float), axis=-1), 0, None)
+    return f * cos_i / r ** 2, r
+
+
 def reference_direct(scene: Scene, width: int, height: int, wavelength_nm, bandwidth_nm, *,
                      sub: int = 6, lam_sub: int = 21) -> tuple[np.ndarray, np.ndarray]:
     """Exact unscattered radiance (Beer–Lambert) of a Lambertian disk facing the camera.
@@ -70,17 +83,10 @@ def reference_direct(scene: Scene, width: int, height: int, wavelength_nm, bandw
     rho = np.interp(lam, t.reflectance_wavelength_nm, t.reflectance)
     L = np.zeros((len(p), len(wl)))
     for light in scene.lights:
-        lp = np.asarray(light.position_m, float)
-        v = p - lp
-        rl = np.linalg.norm(v, axis=1)
-        vhat = v / rl[:, None]
-        axis = np.asarray(light.aim, float) / np.linalg.norm(light.aim)
-        theta = np.arccos(np.clip(vhat @ axis, -1, 1))
-        fb = light.beam.relative_intensity(theta)
-        cos_i = np.clip(-(vhat @ n), 0, None)
+        geo, rl = light_geometry(light, p, n)
         I = np.interp(lam, light.wavelength_nm, light.axial_intensity)
         att = np.exp(-c[None, :, :] * (rl + tt)[:, None, None])  # (N, B, S)
-        L += ((rho * I)[None] * att).mean(axis=2) * (fb * cos_i / (np.pi * rl**2))[:, None]
+        L += ((rho * I)[None] * att).mean(axis=2) * (geo / np.pi)[:, None]
     L *= hit[:, None]
     L = L.reshape(height, sub, width, sub, len(wl)).mean(axis=(1, 3))
     inside = hit.reshape(height, sub, width, sub).all(axis=(1, 3))

@@ -15,6 +15,7 @@ import pytest
 
 from rigsim.render.hybrid import (HybridSettings, hybrid_image, hybrid_reflected, smooth_chart_irradiance,
                                   smooth_chart_veil, supports_hybrid)
+from tests.render.helpers import light_geometry
 
 pytestmark = pytest.mark.render
 
@@ -114,13 +115,8 @@ def _exact_direct_cells(scene, pieces, cells: int, sub: int = 4, wavelength_nm: 
         pts = c0 + p.size_m[0] / 2 * A[..., None] * u + p.size_m[1] / 2 * B[..., None] * v
         e = np.zeros(A.shape)
         for light in scene.lights:
-            vv = pts - np.asarray(light.position_m, float)
-            r = np.linalg.norm(vv, axis=-1)
-            vh = vv / r[..., None]
-            axis = np.asarray(light.aim, float) / np.linalg.norm(light.aim)
-            f = light.beam.relative_intensity(np.arccos(np.clip(vh @ axis, -1, 1)))
-            I = float(np.interp(wavelength_nm, light.wavelength_nm, light.axial_intensity))
-            e += I * f * np.clip(-(vh @ n), 0, None) * np.exp(-c * r) / r ** 2
+            geo, r = light_geometry(light, pts, n)
+            e += float(np.interp(wavelength_nm, light.wavelength_nm, light.axial_intensity)) * geo * np.exp(-c * r)
         E[k, ..., 0] = e.reshape(cells, sub, cells, sub).mean(axis=(1, 3))
     return E
 

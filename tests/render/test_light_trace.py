@@ -18,7 +18,7 @@ from rigsim.render.light_trace import trace_target_irradiance
 from rigsim.scene.types import BeamPattern
 from rigsim.water.model import Spectrum1D, TabulatedWater
 from rigsim.water.phase import HenyeyGreenstein
-from tests.render.helpers import disk_scene, make_light
+from tests.render.helpers import disk_scene, light_geometry, make_light
 
 pytestmark = pytest.mark.render
 
@@ -49,15 +49,10 @@ def _exact_cells(scene, cells: int, sub: int = 12, lam_sub: int = 41):
     c = scene.water.c_per_m(lam)
     E = np.zeros(A.shape + (len(CENTRES),))
     for light in scene.lights:
-        vv = pts - np.asarray(light.position_m, float)
-        r = np.linalg.norm(vv, axis=-1)
-        vh = vv / r[..., None]
-        axis = np.asarray(light.aim, float) / np.linalg.norm(light.aim)
-        f = light.beam.relative_intensity(np.arccos(np.clip(vh @ axis, -1, 1)))
-        cos_i = np.clip(-(vh @ n), 0, None)
+        geo, r = light_geometry(light, pts, n)
         I = np.interp(lam, light.wavelength_nm, light.axial_intensity)  # (B, lam_sub)
         att = np.exp(-c[None, None] * r[..., None, None])  # (.., B, lam_sub)
-        E += (f * cos_i / r ** 2)[..., None] * (I[None, None] * att).mean(axis=-1)
+        E += geo[..., None] * (I[None, None] * att).mean(axis=-1)
     E = np.where(inside[..., None], E, 0.0)
     Ec = E.reshape(cells, sub, cells, sub, -1).sum(axis=(1, 3))
     k = inside.reshape(cells, sub, cells, sub).sum(axis=(1, 3))
