@@ -428,3 +428,44 @@ def test_the_benchmark_status_read_through_a_closed_pipe_ends_without_a_tracebac
     r = subprocess.run(f"{sys.executable} {root / 'benchmarks' / 'bench_fast_engine_agreement.py'} --status | true",
                        shell=True, capture_output=True, text=True, timeout=120)
     assert "Traceback" not in r.stderr and "BrokenPipeError" not in r.stderr, r.stderr
+
+
+def test_moderated_noise_estimates_are_closer_to_the_true_noise_than_the_batches_own():
+    """:func:`moderated_relative_se` (Smyth 2004) on simulated cases: 75 regions whose true relative noise σ differs
+    (σ² from a scaled inverse-χ² with 8 degrees of freedom about 1 %²), each estimated from 4 batches
+    (s² = σ² χ²₃ / 3).  Over 400 cases the moderated estimates' mean squared log error is well below the raw
+    ones', and an estimate at a third of the truth or less — the raw estimate's 4.5 % chance, which made a fast
+    image's own noise read as a disagreement — becomes rare (measured: 1.09 → 0.24; 4.8 % → 0.02 %)."""
+    from rigsim.metrics.agreement import moderated_relative_se
+
+    rng = np.random.default_rng(11)
+    raw_err, mod_err, raw_low, mod_low = [], [], [], []
+    for _ in range(400):
+        sigma2 = 1e-4 * 8 / rng.chisquare(8, 75)
+        s2 = sigma2 * rng.chisquare(3, 75) / 3
+        mod = moderated_relative_se(np.sqrt(s2), 3) ** 2
+        raw_err.append(np.log(s2 / sigma2) ** 2)
+        mod_err.append(np.log(mod / sigma2) ** 2)
+        raw_low.append(s2 <= sigma2 / 9)
+        mod_low.append(mod <= sigma2 / 9)
+    assert np.mean(mod_err) < 0.5 * np.mean(raw_err), (np.mean(mod_err), np.mean(raw_err))
+    assert 0.03 < np.mean(raw_low) < 0.06, np.mean(raw_low)
+    assert np.mean(mod_low) < 0.005, np.mean(mod_low)
+
+
+def test_moderated_noise_pools_a_common_noise_and_leaves_too_few_regions_alone():
+    """Regions of one true noise (1 %): the estimates scatter by their chance alone, so each becomes the common
+    value, within 10 % of it; six regions (a disk case) are too few to pool and stay as they are; values that
+    are not finite and positive are kept."""
+    from rigsim.metrics.agreement import MIN_MODERATED, moderated_relative_se
+
+    rng = np.random.default_rng(5)
+    s = np.sqrt(1e-4 * rng.chisquare(3, 75) / 3)
+    mod = moderated_relative_se(s, 3)
+    assert np.all(np.abs(mod / 0.01 - 1) < 0.1), (mod.min(), mod.max())
+    few = s[:MIN_MODERATED - 1]
+    np.testing.assert_array_equal(moderated_relative_se(few, 3), few)
+    odd = s.copy()
+    odd[:3] = [0.0, np.nan, np.inf]
+    out = moderated_relative_se(odd, 3)
+    assert out[0] == 0.0 and np.isnan(out[1]) and np.isinf(out[2]) and np.all(np.isfinite(out[3:]))
