@@ -144,7 +144,7 @@ CHECK_ONLY_COMMITS: dict[str, str] = {
     "4bf50e6": "the published line names the cells not judged",
     "fcec5ec": "each chart's patches pooled per colour group (printed only)",
     "b23ae01": "the hybrid reference's chart fit of order 4 (the references of later runs, not the fast engine)",
-    "3c6724b": "the fast engine's noise per region moderated over a case's regions (the check's SE, not the image)",
+    "053c838": "the fast engine's noise per region moderated over a case's regions (the check's SE, not the image)",
 }
 
 
