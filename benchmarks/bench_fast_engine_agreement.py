@@ -94,6 +94,7 @@ hybrid_photons = {hybrid_photons}
 hybrid_spp = {hybrid_spp}
 hybrid_veil_renders = {hybrid_veil}
 hybrid_veil_sigma_px = {hybrid_sigma}
+fast_noise_seeds = {fast_noise}
 {hybrid_order}{hybrid_max}"""
 
 
@@ -251,6 +252,10 @@ def main(argv=None) -> int:
                          "rigsim.render.hybrid.DEFAULT_FIT_ORDER, 4; until 2026-12-06: 2)")
     ap.add_argument("--hybrid-max-seeds", type=int, default=None,
                     help="--max-seeds for the hybrid cases alone (the disk and daylight cases keep --max-seeds)")
+    ap.add_argument("--fast-noise-seeds", type=int, default=3,
+                    help="further fast renders per case (other seeds) whose photon batches join the checked image's own "
+                         "in its noise estimate (3 + 3 per render degrees of freedom; 0: the image's 4 batches alone, "
+                         "as the tables before 2026-12-07)")
     ap.add_argument("--status", action="store_true",
                     help=f"print {PUBLISHED.relative_to(ROOT)} by the fast engine each row measured (this checkout's or "
                          "an earlier one) and the rows to make again; renders nothing")
@@ -287,7 +292,7 @@ def main(argv=None) -> int:
                                   ms=args.multiple_scattering, reference=args.reference,
                                   hybrid_photons=args.hybrid_photons, hybrid_spp=args.hybrid_spp,
                                   hybrid_veil=args.hybrid_veil_renders,
-                                  hybrid_sigma=args.hybrid_veil_sigma_px,
+                                  hybrid_sigma=args.hybrid_veil_sigma_px, fast_noise=args.fast_noise_seeds,
                                   hybrid_order=(f"hybrid_order = {args.hybrid_order}\n"
                                                 if args.hybrid_order is not None else ""),
                                   hybrid_max=(f"hybrid_max_seeds = {args.hybrid_max_seeds}\n"
@@ -336,7 +341,9 @@ def main(argv=None) -> int:
                f"{args.hybrid_veil_renders} renders' veil per image, pooled over the "
                f"chart by a {args.hybrid_veil_sigma_px:g}-px local quadratic)"
                if args.reference == "hybrid" else "")
-        settings = f"{w}x{h} px{ms}, Monte Carlo {args.seeds}-{max(args.seeds, args.max_seeds)} x {args.spp} spp{hyb}, " + "; ".join(
+        noise = (f", the fast engine's noise from the photon batches of {1 + args.fast_noise_seeds} renders"
+                 if args.fast_noise_seeds else "")
+        settings = f"{w}x{h} px{ms}{noise}, Monte Carlo {args.seeds}-{max(args.seeds, args.max_seeds)} x {args.spp} spp{hyb}, " + "; ".join(
             x for x in (f"rigs {', '.join(rigs)}" if rigs else "",
                         f"daylight: ambient-only at {depths} m, sun at 30 deg" if depths else "") if x)
         write_published(rows, PUBLISHED, settings=settings, engine=_engine_id())

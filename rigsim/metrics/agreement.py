@@ -400,8 +400,8 @@ def moderated_relative_se(rel_se, dof: int) -> np.ndarray:
     return r
 
 
-def compare_renders(fast, references: list, target_kind: str, *,
-                    fast_batches: list | None = None) -> tuple[list[RegionDeviation], list[MetricDeviation]]:
+def compare_renders(fast, references: list, target_kind: str, *, fast_batches: list | None = None,
+                    noise_batches: list | None = None) -> tuple[list[RegionDeviation], list[MetricDeviation]]:
     """Region and metric deviations of a fast-engine render from independent Monte Carlo renders (the contrast
     whatever its size: :func:`chart_beyond_visibility` reads it; tables leave out contrasts below
     :data:`MIN_CONTRAST`).
@@ -420,25 +420,40 @@ def compare_renders(fast, references: list, target_kind: str, *,
         (:func:`rigsim.preview.render_photon_batches`, same size; at least two): their spread is the
         fast engine's noise (``fast_se``; over a chart's regions :func:`moderated_relative_se`).  None or empty:
         the fast image is taken as noiseless.
+    noise_batches
+        The batch images (as ``fast_batches``, as many each) of further fast renders of the scene with other
+        seeds, made for the noise estimate alone: each render's batches scatter about their own mean as the
+        fast image's do, so their spreads pool with its own — the variance of a region's batch values is the
+        pooled within-render variance (``Σ (n − 1)`` degrees of freedom in all, not 3), a metric's the mean of
+        the renders' jackknife variances.  The fast image itself stays the one judged.
     """
     if len(references) < 2:
         raise ValueError("the reference needs at least two independent Monte Carlo renders")
     fast_batches = list(fast_batches or [])
-    for ref in references + fast_batches:
+    nb = len(fast_batches)
+    batch_sets = [fast_batches] + ([list(g) for g in noise_batches or [] if len(g) == nb] if nb >= 2 else [])
+    if nb >= 2 and len(batch_sets) - 1 != len(noise_batches or []):
+        raise ValueError(f"each render of noise_batches needs as many batch images as fast_batches ({nb})")
+    for ref in references + [b for g in batch_sets for b in g]:
         if ref.radiance.shape != fast.radiance.shape:
             raise ValueError(f"the renders differ in shape: {ref.radiance.shape} vs {fast.radiance.shape}")
-    nb = len(fast_batches)
+    dof = len(batch_sets) * (nb - 1) if nb >= 2 else 0  # of the fast engine's noise estimate
 
-    def batch_se(values) -> float:  # standard error of the fast value from its batches' values
-        v = np.asarray(values, float)
-        return float(v.std(ddof=1) / math.sqrt(v.size)) if v.size >= 2 and np.all(np.isfinite(v)) else 0.0
+    def batch_se(per_group) -> float:
+        """Standard error of the fast value from its batch values (one array per render, the judged image's
+        first): the pooled within-render variance of a batch value over the judged image's batch count."""
+        v = [np.asarray(x, float) for x in per_group]
+        if nb < 2 or not all(np.all(np.isfinite(x)) for x in v):
+            return 0.0
+        ss = sum(float(np.sum((x - x.mean()) ** 2)) for x in v)
+        return math.sqrt(ss / dof / nb)
 
     oid = np.asarray(fast.layers["object_id"])
     regions = comparison_regions(oid, fast.meta.get("object_ids", {}), target_kind)
     groups = colour_groups(fast.wavelength_nm)
     h_fast = fast.radiant_exposure(1.0)
     h_refs = [r.radiant_exposure(1.0) for r in references]
-    h_bats = [b.radiant_exposure(1.0) for b in fast_batches]
+    h_bats = [[b.radiant_exposure(1.0) for b in g] for g in batch_sets]
     n = len(references)
     out: list[RegionDeviation] = []
     for name, m in regions.items():
@@ -449,10 +464,10 @@ def compare_renders(fast, references: list, target_kind: str, *,
             out.append(RegionDeviation(name, g, int(m.sum()), f, float(per.mean()),
                                        float(per.std(ddof=1) / math.sqrt(n)),
                                        float(per.max() / med) if med > 0 else float("nan"),
-                                       batch_se([h[m][:, idx].mean() for h in h_bats])))
-    if nb >= 2:  # each region's noise from nb - 1 degrees of freedom, moderated over the case's regions
+                                       batch_se([[h[m][:, idx].mean() for h in g] for g in h_bats])))
+    if nb >= 2:  # each region's noise from `dof` degrees of freedom, moderated over the case's regions
         rel = np.array([r.fast_se / r.fast if r.fast > 0 else np.nan for r in out])
-        mod = moderated_relative_se(rel, nb - 1)
+        mod = moderated_relative_se(rel, dof)
         out = [dataclasses.replace(r, fast_se=float(mod[i] * r.fast)) if np.isfinite(mod[i]) and r.fast > 0 else r
                for i, r in enumerate(out)]
     masks = target_masks(oid, fast.meta.get("object_ids", {}), target_kind)
@@ -467,8 +482,16 @@ def compare_renders(fast, references: list, target_kind: str, *,
 
     mf = radiance_metrics(fast)
     mref, ref_se = pooled_metric(references, radiance_metrics)
-    bats = [b for b in fast_batches if not fast.meta.get("particles") or "particle_id" in b.layers]
-    fast_se = pooled_metric(bats, radiance_metrics)[1] if len(bats) >= 2 else {}
+    fast_se: dict = {}  # each metric's: the renders' jackknife variances of their batches, pooled
+    per_render, weights = [], []
+    for g in batch_sets:
+        bats = [b for b in g if not fast.meta.get("particles") or "particle_id" in b.layers]
+        if len(bats) >= 2:
+            per_render.append(pooled_metric(bats, radiance_metrics)[1])
+            weights.append(len(bats) - 1)
+    for key in set().union(*per_render) if per_render else ():
+        v = np.array([x.get(key, np.nan) for x in per_render], float)
+        fast_se[key] = float(math.sqrt(np.average(v ** 2, weights=weights))) if np.all(np.isfinite(v)) else float("nan")
     metrics: list[MetricDeviation] = []
     for key in ("contrast_radiance", "backscatter_share", "speck_share"):
         # (a contrast below MIN_CONTRAST is kept here, for chart_beyond_visibility; the study's table leaves it out)

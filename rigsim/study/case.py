@@ -217,6 +217,14 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
     # the fast engine's own noise: the same image with each batch of its multiple-scattering photons
     fast_batches = render_photon_batches(scene, traced, traced_size=(ck.width, ck.height), width=ck.width,
                                          height=ck.height, wavelengths_nm=wl, layers=layers)
+    # ... and of further renders with other seeds, for that noise estimate alone (CheckSettings.fast_noise_seeds)
+    noise_batches = []
+    for j in range(1, ck.fast_noise_seeds + 1 if fast_batches else 1):
+        tr: dict = {}
+        render_preview(scene, width=ck.width, height=ck.height, wavelengths_nm=wl, layers=layers,
+                       multiple=spec.render.preview_multiple, seed=(seed + 104_729 * j) % 2**32, traced_out=tr)
+        noise_batches.append(render_photon_batches(scene, tr, traced_size=(ck.width, ck.height), width=ck.width,
+                                                   height=ck.height, wavelengths_nm=wl, layers=layers))
     t_fast = time.perf_counter() - t0
     t0 = time.perf_counter()
 
@@ -261,7 +269,8 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
         return hybrid_image(img, refl, group=group, veil_sigma_px=ck.hybrid_veil_sigma_px)
 
     refs = [reference(i) for i in range(ck.seeds)]
-    regions, metrics = compare_renders(fast, refs, target_kind, fast_batches=fast_batches)
+    regions, metrics = compare_renders(fast, refs, target_kind, fast_batches=fast_batches,
+                                       noise_batches=noise_batches)
     pilot = None
     if (ck.max_seeds or ck.seeds) > ck.seeds:  # two stages (CheckSettings): the pilot's noise sets the count
         # (the reference's noise alone: more renders do not change the fast engine's), over the regions that will
@@ -275,7 +284,8 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
         n = ck.renders_for(pilot["se_p90"], hybrid=hybrid)
         if n > len(refs):
             refs += [reference(i) for i in range(len(refs), n)]
-            regions, metrics = compare_renders(fast, refs, target_kind, fast_batches=fast_batches)
+            regions, metrics = compare_renders(fast, refs, target_kind, fast_batches=fast_batches,
+                                       noise_batches=noise_batches)
     t_mc = time.perf_counter() - t0
     record = {"case_id": spec.case_id(case), "case": case.key(), "rig": case.rig_name, "water": case.water_name,
               "target": target_kind if target_kind != "mesh" else case.target, "distance_m": case.distance_m,
@@ -287,6 +297,7 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
                          "veil_renders": ck.hybrid_veil_renders, "veil_sigma_px": ck.hybrid_veil_sigma_px,
                          "order": fit_order}
               if hybrid else None,
+              "fast_noise_renders": 1 + len(noise_batches) if fast_batches else 0,
               "fast_wall_time_s": t_fast, "monte_carlo_wall_time_s": t_mc,
               "regions": [r.record() for r in regions], "metrics": [m.record() for m in metrics]}
     from rigsim.spectral_image import srgb_preview

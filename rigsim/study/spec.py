@@ -49,6 +49,8 @@
     hybrid_order = 4        # optional: order of the polynomial fitted to the chart's light-traced irradiance (0-6;
                             # default rigsim.render.hybrid.DEFAULT_FIT_ORDER)
     hybrid_max_seeds = 8    # optional: max_seeds for the hybrid cases alone (the others keep max_seeds)
+    fast_noise_seeds = 3    # optional: further fast renders (other seeds) whose photon batches join the checked
+                            # image's own in its noise estimate (default 0: its 4 batches alone, 3 degrees of freedom)
 
     [sweep]
     extend_visibility = true  # default: where a target stays visible over the whole sweep, the study
@@ -163,6 +165,12 @@ class CheckSettings:
     #: for all, 8, an edge-lit Jerlov 9C black disk's reference fell from 32 renders to 4-8 and its open water's
     #: -9.0 % read as within noise.)
     hybrid_max_seeds: int | None = None
+    #: Further fast-engine renders of the case with other seeds, made only for the fast image's noise: the spread
+    #: of their photon batches joins the checked image's own (``fast_batches`` and ``noise_batches`` of
+    #: :func:`rigsim.metrics.agreement.compare_renders`), 3 more degrees of freedom each.  With the image's 4
+    #: batches alone a contrast's noise was once read as a third of its spread over seeds (the edge-lit chart at
+    #: 6 m in Jerlov II, 2026-12-06: ±0.9 % where 12 seeds scatter by 3.3 %).  0: the image's batches alone.
+    fast_noise_seeds: int = 0
 
     def renders_for(self, pilot_se_p90: float, hybrid: bool = False) -> int:
         """Renders in all for a pilot whose regions' relative SE has the 90th percentile ``pilot_se_p90``
@@ -255,6 +263,8 @@ class StudySpec:
     def check_id(self, case: Case) -> str:
         """Stable id of a case's Monte Carlo check (the case's id + a hash of the check settings)."""
         ck = asdict(self.check)
+        if not ck["fast_noise_seeds"]:  # the ids of checks made before the option existed stay
+            ck.pop("fast_noise_seeds")
         if ck["reference"] == "monte-carlo":  # the ids of checks made before the hybrid reference existed stay
             for k in ("reference", "hybrid_photons", "hybrid_spp", "hybrid_veil_renders", "hybrid_veil_sigma_px",
                       "hybrid_order"):
@@ -442,6 +452,7 @@ class CheckTable(FileModel):
     hybrid_veil_sigma_px: Annotated[Real, Field(ge=0.0, le=64.0)] = 4.0
     hybrid_order: Annotated[Int, Field(ge=0, le=6)] | None = None
     hybrid_max_seeds: Annotated[Int, Field(ge=2, le=1024)] | None = None
+    fast_noise_seeds: Annotated[Int, Field(ge=0, le=64)] = 0
 
     @model_validator(mode="after")
     def _two_stages(self) -> "CheckTable":
@@ -458,7 +469,7 @@ class CheckTable(FileModel):
                              reference=self.reference, hybrid_photons=self.hybrid_photons,
                              hybrid_spp=self.hybrid_spp, hybrid_veil_renders=self.hybrid_veil_renders,
                              hybrid_veil_sigma_px=self.hybrid_veil_sigma_px, hybrid_order=self.hybrid_order,
-                             hybrid_max_seeds=self.hybrid_max_seeds)
+                             hybrid_max_seeds=self.hybrid_max_seeds, fast_noise_seeds=self.fast_noise_seeds)
 
 
 class CaptureTable(FileModel):

@@ -2,6 +2,7 @@
 table) and the visibility range found beyond the sweep."""
 
 import csv
+import json
 import math
 from pathlib import Path
 
@@ -276,7 +277,8 @@ def test_a_fast_study_checks_itself_against_monte_carlo(tmp_path):
     has the trust table and the side-by-side pictures."""
     p = fast_study(tmp_path, waters='["jerlov-3C"]', distances="[1.5]", targets='["colorchecker"]',
                    sweep_extra="extend_visibility = false", render_extra="check_with_mitsuba = 1",
-                   extra="\n[check]\nwidth = 72\nheight = 48\nspp = 16\nseeds = 2\nmax_seeds = 3\ntarget_se = 0.0001\n")
+                   extra="\n[check]\nwidth = 72\nheight = 48\nspp = 16\nseeds = 2\nmax_seeds = 3\ntarget_se = 0.0001\n"
+                         "fast_noise_seeds = 1\n")
     spec = load_study(p)
     out = run_study(spec, tmp_path / "out", serial=True, progress=False)
     rows = _rows(out / "agreement.csv")
@@ -297,6 +299,8 @@ def test_a_fast_study_checks_itself_against_monte_carlo(tmp_path):
     assert max(abs(v) for v in veil) < 0.15, veil
     (check_dir,) = (out / "checks").iterdir()
     assert (check_dir / "fast.png").is_file() and (check_dir / "monte-carlo.png").is_file()
+    # the fast engine's noise from its own photon batches and one further render's (fast_noise_seeds = 1)
+    assert json.loads((check_dir / "check.json").read_text())["fast_noise_renders"] == 2
     from rigsim.report.html import write_report
 
     page = write_report(out).read_text()
