@@ -147,6 +147,7 @@ CHECK_ONLY_COMMITS: dict[str, str] = {
     "b23ae01": "the hybrid reference's chart fit of order 4 (the references of later runs, not the fast engine)",
     "053c838": "the fast engine's noise per region moderated over a case's regions (the check's SE, not the image)",
     "b7e6fc4": "the fast engine's noise from further renders' photon batches (the check's SE, not the image)",
+    "332b096": "a hybrid image averages 16 renders' veil by default (the study's reference, not the fast engine)",
 }
 
 

@@ -43,7 +43,7 @@
                             # for turbid water, where the renders' chart patches are heavy-tailed)
     hybrid_photons = 1000000  # per reference image (hybrid)
     hybrid_spp = 64         # camera-pass paths per pixel and band, per reference image (hybrid)
-    hybrid_veil_renders = 4 # renders whose veil (backscatter layer) each hybrid image averages
+    hybrid_veil_renders = 16  # renders whose veil (backscatter layer) each hybrid image averages
     hybrid_veil_sigma_px = 4.0  # the veil over the chart pooled by a local quadratic, Gaussian kernel of this
                             # many pixels (rigsim.render.hybrid.smooth_chart_veil); 0: each pixel's own
     hybrid_order = 4        # optional: order of the polynomial fitted to the chart's light-traced irradiance (0-6;
@@ -147,10 +147,12 @@ class CheckSettings:
     reference: str = "monte-carlo"
     hybrid_photons: int = 1_000_000
     hybrid_spp: int = 64
-    #: Renders whose veil each hybrid image averages (a render is cheap beside a camera pass, and in turbid
-    #: water the veil of one render is noisy: Jerlov 7C, edge-lit rig at 1 m, 16 renders of 32 spp left the
-    #: open water's blue ±7.5 %).
-    hybrid_veil_renders: int = 4
+    #: Renders whose veil each hybrid image averages (a render is cheap beside a camera pass — ~3 s against ~170 s
+    #: at 96×64, 32 spp, 128 spp per band — and the veil over the chart is the hybrid's noisiest part, heavy-tailed
+    #: where the beams cross in front of it: Jerlov III, twin-strobes-45-wide, chart at 3 m, the white patch's blue
+    #: read −12.0 ± 13.7 % with 4 and −4.5 ± 3.1 % with 16, 2026-12-06; Jerlov 7C, edge-lit rig at 1 m, 16 renders of
+    #: 32 spp left the open water's blue ±7.5 %).  (Until 2026-12-06: 4.)
+    hybrid_veil_renders: int = 16
     #: Kernel (pixels) of the local quadratic that pools the hybrid images' veil over the chart
     #: (:func:`rigsim.render.hybrid.smooth_chart_veil`: the veil does not depend on the patches, and pooled over
     #: neighbouring ones its noise fell 1.6–1.9× in Jerlov 7C; its bias on the fast engine's veil ≤ 0.6 % of a
@@ -448,7 +450,7 @@ class CheckTable(FileModel):
     reference: Literal["monte-carlo", "hybrid"] = "monte-carlo"
     hybrid_photons: Annotated[Int, Field(ge=10_000, le=1_000_000_000)] = 1_000_000
     hybrid_spp: Annotated[Int, Field(ge=1, le=65_536)] = 64
-    hybrid_veil_renders: Annotated[Int, Field(ge=1, le=256)] = 4
+    hybrid_veil_renders: Annotated[Int, Field(ge=1, le=256)] = 16
     hybrid_veil_sigma_px: Annotated[Real, Field(ge=0.0, le=64.0)] = 4.0
     hybrid_order: Annotated[Int, Field(ge=0, le=6)] | None = None
     hybrid_max_seeds: Annotated[Int, Field(ge=2, le=1024)] | None = None
