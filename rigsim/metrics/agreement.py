@@ -65,7 +65,8 @@ from rigsim.spectrum import colour_groups
 
 __all__ = ["RegionDeviation", "MetricDeviation", "CLEAR_WATERS", "MIN_CONTRAST", "PublishedAgreement",
            "published_agreement", "write_published", "PUBLISHED_TABLE", "tolerance_for", "comparison_regions",
-           "compare_renders", "moderated_relative_se", "MIN_MODERATED", "verdict", "noise_multiplier", "relative_se", "HEAVY_TAIL", "heavy_tailed",
+           "compare_renders", "moderated_relative_se", "MIN_MODERATED", "verdict", "noise_multiplier", "relative_se",
+           "HEAVY_TAIL", "heavy_tailed",
            "case_key", "target_tails", "mean_image", "pooled_metric", "BEYOND_VISIBILITY", "chart_beyond_visibility",
            "judged", "pooled_patches"]
 
@@ -240,8 +241,8 @@ class RegionDeviation:
     ``fast_se`` is the spread of the region's mean over the images made with each batch of them
     (:func:`rigsim.preview.render_photon_batches`) over √batches, moderated over the case's regions
     (:func:`moderated_relative_se`), 0 where none were traced or none given (until 2026-12-04 it was left out:
-    in Jerlov 9C at 1 m 2–3 % of the blue open-water veil between seeds).  ``reference_tail`` is the largest render's region mean over the median render's (module
-    docstring, :data:`HEAVY_TAIL`; NaN if unknown).
+    in Jerlov 9C at 1 m 2–3 % of the blue open-water veil between seeds).  ``reference_tail`` is the largest
+    render's region mean over the median render's (module docstring, :data:`HEAVY_TAIL`; NaN if unknown).
     """
 
     region: str
@@ -431,9 +432,10 @@ def compare_renders(fast, references: list, target_kind: str, *, fast_batches: l
         raise ValueError("the reference needs at least two independent Monte Carlo renders")
     fast_batches = list(fast_batches or [])
     nb = len(fast_batches)
-    batch_sets = [fast_batches] + ([list(g) for g in noise_batches or [] if len(g) == nb] if nb >= 2 else [])
-    if nb >= 2 and len(batch_sets) - 1 != len(noise_batches or []):
+    extra = [list(g) for g in noise_batches or []] if nb >= 2 else []  # (no batches of its own: noiseless)
+    if any(len(g) != nb for g in extra):
         raise ValueError(f"each render of noise_batches needs as many batch images as fast_batches ({nb})")
+    batch_sets = [fast_batches] + extra
     for ref in references + [b for g in batch_sets for b in g]:
         if ref.radiance.shape != fast.radiance.shape:
             raise ValueError(f"the renders differ in shape: {ref.radiance.shape} vs {fast.radiance.shape}")

@@ -285,7 +285,7 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
         if n > len(refs):
             refs += [reference(i) for i in range(len(refs), n)]
             regions, metrics = compare_renders(fast, refs, target_kind, fast_batches=fast_batches,
-                                       noise_batches=noise_batches)
+                                               noise_batches=noise_batches)
     t_mc = time.perf_counter() - t0
     record = {"case_id": spec.case_id(case), "case": case.key(), "rig": case.rig_name, "water": case.water_name,
               "target": target_kind if target_kind != "mesh" else case.target, "distance_m": case.distance_m,
