@@ -148,6 +148,7 @@ CHECK_ONLY_COMMITS: dict[str, str] = {
     "053c838": "the fast engine's noise per region moderated over a case's regions (the check's SE, not the image)",
     "b7e6fc4": "the fast engine's noise from further renders' photon batches (the check's SE, not the image)",
     "332b096": "a hybrid image averages 16 renders' veil by default (the study's reference, not the fast engine)",
+    "30b92db": "tidying of the check's code (same behaviour)",
 }
 
 
