@@ -95,7 +95,7 @@ hybrid_spp = {hybrid_spp}
 hybrid_veil_renders = {hybrid_veil}
 hybrid_veil_sigma_px = {hybrid_sigma}
 fast_noise_seeds = {fast_noise}
-{hybrid_order}{hybrid_max}"""
+{hybrid_order}{hybrid_max}{hybrid_veil_max}"""
 
 
 def _list(text: str) -> list[str]:
@@ -249,6 +249,12 @@ def main(argv=None) -> int:
                          "light, the camera passes 0.2-0.8 %%; a render costs ~3 s at 96x64, a camera pass ~170 s.  "
                          "Jerlov III, 45-wide, chart at 3 m: the worst patch cell -12.0 +- 13.7 %% with 4, -4.5 +- 3.1 %% "
                          "with 16; until 2026-12-06: 4)")
+    ap.add_argument("--hybrid-veil-max-renders", type=int, default=64,
+                    help="from the pilot's images, as many renders' veil per hybrid image as make the reference cheapest "
+                         "for its noise, up to this many (rigsim.render.hybrid.veil_renders_for; = --hybrid-veil-renders: "
+                         "that many always).  A chart 3-6 m into Jerlov II/III is 75-99 %% veil and one render's veil "
+                         "varies 100-10^5 times as much as one camera pass's light; at 0.5-1 m the pass is most of it "
+                         "(until 2026-12-07: --hybrid-veil-renders always)")
     ap.add_argument("--hybrid-veil-sigma-px", type=float, default=4.0,
                     help="kernel (px) of the local quadratic that pools each hybrid image's veil over the chart "
                          "(rigsim.render.hybrid.smooth_chart_veil; 0: each pixel's own)")
@@ -301,7 +307,10 @@ def main(argv=None) -> int:
                                   hybrid_order=(f"hybrid_order = {args.hybrid_order}\n"
                                                 if args.hybrid_order is not None else ""),
                                   hybrid_max=(f"hybrid_max_seeds = {args.hybrid_max_seeds}\n"
-                                              if args.hybrid_max_seeds is not None else "")).replace("'", '"'))
+                                              if args.hybrid_max_seeds is not None else ""),
+                                  hybrid_veil_max=(f"hybrid_veil_max_renders = {args.hybrid_veil_max_renders}\n"
+                                                   if args.hybrid_veil_max_renders != args.hybrid_veil_renders
+                                                   else "")).replace("'", '"'))
         try:
             spec = load_study(f)
         except ConfigError as e:  # a flag out of range: the study file's field names it (e.g. check.hybrid_photons)
@@ -343,7 +352,10 @@ def main(argv=None) -> int:
                f"{'' if args.hybrid_max_seeds is None else f'up to {args.hybrid_max_seeds} images, '}"
                f"the chart's irradiance fitted by a polynomial of order "
                f"{DEFAULT_FIT_ORDER if args.hybrid_order is None else args.hybrid_order}, "
-               f"{args.hybrid_veil_renders} renders' veil per image, pooled over the "
+               + (f"{args.hybrid_veil_renders} renders' veil per image" if args.hybrid_veil_max_renders ==
+                  args.hybrid_veil_renders else f"{args.hybrid_veil_renders}-{args.hybrid_veil_max_renders} renders' "
+                  "veil per image (as the pilot's noise and costs say)")
+               + f", pooled over the "
                f"chart by a {args.hybrid_veil_sigma_px:g}-px local quadratic)"
                if args.reference == "hybrid" else "")
         noise = (f", the fast engine's noise from the photon batches of {1 + args.fast_noise_seeds} renders"

@@ -37,6 +37,7 @@ Monte Carlo scatter by ±40 % (and in 9C at 1 m none either, with the veil's noi
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -48,8 +49,9 @@ from rigsim.scene.surfaces import target_surfaces
 from rigsim.scene.types import Scene
 from rigsim.spectrum import band_average, band_edges
 
-__all__ = ["CELLS", "CAMERA_CELLS", "DEFAULT_FIT_ORDER", "HybridSettings", "emissive_camera_pass", "hybrid_group", "hybrid_image",
-           "hybrid_reflected", "smooth_chart_irradiance", "smooth_chart_veil", "supports_hybrid"]
+__all__ = ["CELLS", "CAMERA_CELLS", "DEFAULT_FIT_ORDER", "PASS_RENDER_COST_RATIO", "HybridSettings",
+           "emissive_camera_pass", "hybrid_group", "hybrid_image", "hybrid_reflected", "smooth_chart_irradiance", "smooth_chart_veil",
+           "supports_hybrid", "veil_renders_for"]
 
 mi, dr = mitsuba()
 
@@ -68,6 +70,46 @@ CAMERA_CELLS = 2
 #: most, 72 patch × colour-group values) and about an order-4 fit by 1.1–1.4 (Student's t with 7 degrees of
 #: freedom: 1.18); the fit's own noise per patch grows from 0.31 to 0.40 %.  (Until 2026-12-06: 2.)
 DEFAULT_FIT_ORDER = 4
+
+
+#: Time of one hybrid image's light trace and camera pass over that of one render, where neither was timed (kept
+#: before their times were): 2 000 000 photons and 128 paths per pixel and band against a render of 32 paths per
+#: pixel, 96×64, 31 bands, Jerlov III, ~170 s against ~3.4 s on 2 cores (2026-12-06).
+PASS_RENDER_COST_RATIO = 50.0
+
+
+def veil_renders_for(veil_var, pass_var, *, render_s: float, pass_s: float, k_min: int, k_max: int) -> int:
+    """How many renders' veil each hybrid image should average, from a pilot's noise and costs.
+
+    A hybrid image is one camera pass (and light trace: ``pass_s`` seconds) plus ``k`` renders (``render_s``
+    each) whose veil it averages; over a judged region its variance is ``veil_var/k + pass_var`` (``veil_var``:
+    one render's veil, ``pass_var``: one pass's light, each region's relative variance).  The time to bring the
+    regions' summed variance to any given level is ∝ ``(pass_s + k render_s)(V/k + P)`` (``V``, ``P`` the sums),
+    least at ``k* = √(pass_s V / (render_s P))``; returned is the better of the integers either side, within
+    [``k_min``, ``k_max``].  Where the chart is near (0.5–1 m in Jerlov II/III) the pass's light is most of a
+    patch and ``k*`` is small; where it is far (3–6 m) the veil is 75–99 % of a patch's light, one render's
+    veil varies 100–10⁵ times as much as one pass's (``benchmarks/results/fast-engine-log.md``, 2026-12-07),
+    and ``k*`` is in the hundreds."""
+    if not (1 <= k_min <= k_max):
+        raise ValueError(f"need 1 <= k_min <= k_max, got {k_min}, {k_max}")
+    if not (render_s > 0 and pass_s > 0):
+        raise ValueError(f"costs must be positive, got render {render_s} s, pass {pass_s} s")
+    v = np.asarray(veil_var, float)
+    p = np.asarray(pass_var, float)
+    ok = np.isfinite(v) & np.isfinite(p)
+    V, P = float(v[ok].sum()), float(p[ok].sum())
+    if V <= 0:
+        return k_min
+    if P <= 0:
+        return k_max
+
+    def cost(k: int) -> float:
+        return (pass_s + k * render_s) * (V / k + P)
+
+    k_star = math.sqrt(pass_s * V / (render_s * P))
+    lo = int(min(max(math.floor(k_star), k_min), k_max))
+    hi = int(min(max(math.ceil(k_star), k_min), k_max))
+    return lo if cost(lo) <= cost(hi) else hi
 
 
 @dataclass(frozen=True)

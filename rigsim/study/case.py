@@ -7,6 +7,7 @@ their definitions); the study adds the inputs and exposure of each row.
 from __future__ import annotations
 
 import logging
+import math
 
 import numpy as np
 
@@ -246,43 +247,73 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
     group = hybrid_group(scene)
     fit_order = DEFAULT_FIT_ORDER if ck.hybrid_order is None else ck.hybrid_order
     hybrid = ck.reference == "hybrid" and group is not None
+    veil = {"k": ck.hybrid_veil_renders, "render": {}, "pass": {}, "render_s": [], "pass_s": []}
+    if hybrid:  # the regions the check judges, for the split of the pilot's noise (_veil_allocation)
+        from rigsim.metrics.agreement import colour_groups, comparison_regions
+
+        veil["masks"] = [(name, g, m, idx) for name, m in comparison_regions(
+            np.asarray(fast.layers["object_id"]), fast.meta.get("object_ids", {}), target_kind).items()
+            for g, idx in colour_groups(fast.wavelength_nm).items()]
 
     def reference(i):
         """Reference image ``i``: render ``i``; or (hybrid) the mean of renders ``i·k … i·k + k − 1`` (k
-        ``hybrid_veil_renders``) with its chart light replaced by hybrid estimate ``i`` and its veil over the
-        chart pooled (``hybrid_veil_sigma_px``)."""
+        ``hybrid_veil_renders``, or as chosen after the pilot: ``hybrid_veil_max_renders``) with its chart light
+        replaced by hybrid estimate ``i`` and its veil over the chart pooled (``hybrid_veil_sigma_px``)."""
         if not hybrid:
             return mc(i)
         from rigsim.metrics.agreement import mean_image
         from rigsim.render.hybrid import HybridSettings, hybrid_image, hybrid_reflected
 
-        k = ck.hybrid_veil_renders
-        img = mean_image([mc(i * k + j) for j in range(k)])
+        k = veil["k"]
+        renders = [mc(i * k + j) for j in range(k)]
+        for j, r in enumerate(renders):  # each render's veil over the judged regions (the pilot's noise split)
+            if i * k + j not in veil["render"]:
+                v = hybrid_image(r, np.zeros_like(np.asarray(r.radiance, float)), group=group,
+                                 veil_sigma_px=ck.hybrid_veil_sigma_px).radiant_exposure(1.0)
+                veil["render"][i * k + j] = [float(v[m][:, idx].mean()) for _, _, m, idx in veil["masks"]]
+                veil["render_s"].append(float(r.meta.get("wall_time_s", float("nan"))))
+        img = mean_image(renders)
         hs = HybridSettings(photons=ck.hybrid_photons, spp=ck.hybrid_spp, order=fit_order)
         f = None if keep is None else keep / f"{hs.key()}-{i:03d}.npz"
         refl = _read_array(f, (ck.height, ck.width, len(wl)))
+        seconds = _read_seconds(f)
         if refl is None:
+            t = time.perf_counter()
             refl, _ = hybrid_reflected(scene, width=ck.width, height=ck.height, wavelength_nm=wl, settings=hs,
                                        seed=(seed + 7919 * i) % 2**31)
+            seconds = time.perf_counter() - t
             if f is not None:
-                _write_array(f, refl)
+                _write_array(f, refl, seconds=seconds)
+        if i not in veil["pass"]:
+            veil["pass"][i] = [float(refl[m][:, idx].mean()) for _, _, m, idx in veil["masks"]]
+            veil["pass_s"].append(seconds)
         return hybrid_image(img, refl, group=group, veil_sigma_px=ck.hybrid_veil_sigma_px)
 
     refs = [reference(i) for i in range(ck.seeds)]
     regions, metrics = compare_renders(fast, refs, target_kind, fast_batches=fast_batches,
                                        noise_batches=noise_batches)
     pilot = None
-    if (ck.max_seeds or ck.seeds) > ck.seeds:  # two stages (CheckSettings): the pilot's noise sets the count
+    adapt = hybrid and (ck.hybrid_veil_max_renders or 0) > ck.hybrid_veil_renders
+    if (ck.max_seeds or ck.seeds) > ck.seeds or adapt:  # two stages (CheckSettings): the pilot's noise sets the count
         # (the reference's noise alone: more renders do not change the fast engine's), over the regions that will
         # be judged: a chart the pilot puts beyond its visibility in both engines gets no more renders for its
         # patches (chart_beyond_visibility; the demo's Jerlov 3C chart at 6 m would take 24 renders for them)
         unseen = chart_beyond_visibility(target_kind, [m.record() for m in metrics], len(refs))
-        se = np.array([relative_se(r.reference, r.reference_se) for r in regions
-                       if not (unseen and r.region.startswith("patch:"))], float)
+        keys = {(r.region, r.group) for r in regions if not (unseen and r.region.startswith("patch:"))}
+        se = np.array([relative_se(r.reference, r.reference_se) for r in regions if (r.region, r.group) in keys],
+                      float)
         se = se[np.isfinite(se)]
         pilot = {"seeds": ck.seeds, "se_p90": float(np.percentile(se, 90)) if se.size else float("nan")}
         n = ck.renders_for(pilot["se_p90"], hybrid=hybrid)
-        if n > len(refs):
+        changed = n > len(refs)
+        if adapt:  # as many renders' veil per image as make the reference cheapest for its noise
+            k, se_p90 = _veil_allocation(ck, veil, regions, keys)
+            pilot.update(veil_renders=ck.hybrid_veil_renders, veil_renders_chosen=k, se_p90_predicted=se_p90)
+            if k != veil["k"]:  # every image made again of k renders (the pilot's renders among them)
+                veil["k"] = k
+                n = ck.renders_for(se_p90, hybrid=True)
+                refs, changed = [], True
+        if changed:
             refs += [reference(i) for i in range(len(refs), n)]
             regions, metrics = compare_renders(fast, refs, target_kind, fast_batches=fast_batches,
                                                noise_batches=noise_batches)
@@ -294,7 +325,7 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
               "spp": ck.spp, "seeds": len(refs), "pilot": pilot, "integrator": ck.integrator,
               "reference": "hybrid" if hybrid else "monte-carlo",
               "hybrid": {"photons": ck.hybrid_photons, "spp": ck.hybrid_spp,
-                         "veil_renders": ck.hybrid_veil_renders, "veil_sigma_px": ck.hybrid_veil_sigma_px,
+                         "veil_renders": veil["k"], "veil_sigma_px": ck.hybrid_veil_sigma_px,
                          "order": fit_order}
               if hybrid else None,
               "fast_noise_renders": 1 + len(noise_batches) if fast_batches else 0,
@@ -307,11 +338,55 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
     return {"record": record, "files": {"fast.png": png_bytes(fast_rgb), "monte-carlo.png": png_bytes(mc_rgb)}}
 
 
-def _write_array(path, a: np.ndarray) -> None:
-    """Keep an array atomically (``.npz``, :func:`rigsim.fileio.atomic_write_npz`)."""
+def _write_array(path, a: np.ndarray, seconds: float | None = None) -> None:
+    """Keep an array atomically (``.npz``, :func:`rigsim.fileio.atomic_write_npz`), with the seconds it took."""
     from rigsim.fileio import atomic_write_npz
 
-    atomic_write_npz(path, {"a": np.asarray(a, np.float64)})
+    extra = {} if seconds is None else {"seconds": np.float64(seconds)}
+    atomic_write_npz(path, {"a": np.asarray(a, np.float64), **extra})
+
+
+def _read_seconds(path) -> float:
+    """The seconds a kept array took to make (NaN where unknown)."""
+    if path is None or not path.is_file():
+        return float("nan")
+    try:
+        with np.load(path) as z:
+            return float(z["seconds"]) if "seconds" in z.files else float("nan")
+    except (OSError, ValueError, KeyError):
+        return float("nan")
+
+
+def _veil_allocation(ck, veil: dict, regions: list, keys: set) -> tuple[int, float]:
+    """Renders' veil per hybrid image for the rest of a check, from its pilot
+    (:func:`rigsim.render.hybrid.veil_renders_for`), and the judged regions' relative SE (90th percentile) that
+    ``ck.seeds`` images of that many would have.
+
+    Each judged region's relative variance is split into one render's veil (over the pilot's renders) and one
+    camera pass's light (over its images), each over the region's reference mean; the costs are the renders'
+    and passes' times (kept ones: their recorded times; passes kept without one:
+    :data:`~rigsim.render.hybrid.PASS_RENDER_COST_RATIO` renders)."""
+    from rigsim.render.hybrid import PASS_RENDER_COST_RATIO, veil_renders_for
+
+    ref = {(r.region, r.group): r.reference for r in regions}
+    rv = np.array(list(veil["render"].values()), float)  # (renders, regions)
+    pv = np.array(list(veil["pass"].values()), float)  # (images, regions)
+    sel = [j for j, (name, g, _, _) in enumerate(veil["masks"]) if (name, g) in keys and ref.get((name, g), 0) > 0]
+    k0 = ck.hybrid_veil_renders
+    if len(rv) < 2 or len(pv) < 2 or not sel:
+        return k0, float("nan")
+    mu = np.array([ref[(veil["masks"][j][0], veil["masks"][j][1])] for j in sel])
+    v = rv[:, sel].var(axis=0, ddof=1) / mu ** 2
+    p = pv[:, sel].var(axis=0, ddof=1) / mu ** 2
+    render_s = float(np.nanmedian(veil["render_s"])) if np.any(np.isfinite(veil["render_s"])) else 1.0
+    pass_s = float(np.nanmedian(veil["pass_s"])) if np.any(np.isfinite(veil["pass_s"])) else float("nan")
+    if not math.isfinite(pass_s):
+        pass_s = PASS_RENDER_COST_RATIO * render_s
+    k = veil_renders_for(v, p, render_s=max(render_s, 1e-3), pass_s=max(pass_s, 1e-3), k_min=k0,
+                         k_max=ck.hybrid_veil_max_renders)
+    se = np.sqrt((v / k + p) / ck.seeds)
+    se = se[np.isfinite(se)]
+    return k, float(np.percentile(se, 90)) if se.size else float("nan")
 
 
 def _read_array(path, shape: tuple):

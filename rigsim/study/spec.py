@@ -44,6 +44,8 @@
     hybrid_photons = 1000000  # per reference image (hybrid)
     hybrid_spp = 64         # camera-pass paths per pixel and band, per reference image (hybrid)
     hybrid_veil_renders = 16  # renders whose veil (backscatter layer) each hybrid image averages
+    hybrid_veil_max_renders = 64  # optional: from the pilot's noise, as many renders' veil per image as make the
+                            # reference cheapest for it, up to this many (rigsim.render.hybrid.veil_renders_for)
     hybrid_veil_sigma_px = 4.0  # the veil over the chart pooled by a local quadratic, Gaussian kernel of this
                             # many pixels (rigsim.render.hybrid.smooth_chart_veil); 0: each pixel's own
     hybrid_order = 4        # optional: order of the polynomial fitted to the chart's light-traced irradiance (0-6;
@@ -153,6 +155,12 @@ class CheckSettings:
     #: read −12.0 ± 13.7 % with 4 and −4.5 ± 3.1 % with 16, 2026-12-06; Jerlov 7C, edge-lit rig at 1 m, 16 renders of
     #: 32 spp left the open water's blue ±7.5 %).  (Until 2026-12-06: 4.)
     hybrid_veil_renders: int = 16
+    #: Where set (above ``hybrid_veil_renders``), the pilot's images say how many renders' veil each image averages
+    #: from then on, up to this many (:func:`rigsim.render.hybrid.veil_renders_for`: the count that makes the
+    #: reference cheapest for its noise; every image is then made again of that many, the pilot's renders among
+    #: them).  A chart 3–6 m into Jerlov II/III is 75–99 % veil, one render's veil varying 100–10⁵× as much as one
+    #: camera pass's light; at 0.5–1 m the pass's light is most of a patch.  None: ``hybrid_veil_renders`` always.
+    hybrid_veil_max_renders: int | None = None
     #: Kernel (pixels) of the local quadratic that pools the hybrid images' veil over the chart
     #: (:func:`rigsim.render.hybrid.smooth_chart_veil`: the veil does not depend on the patches, and pooled over
     #: neighbouring ones its noise fell 1.6–1.9× in Jerlov 7C; its bias on the fast engine's veil ≤ 0.6 % of a
@@ -267,10 +275,12 @@ class StudySpec:
         ck = asdict(self.check)
         if not ck["fast_noise_seeds"]:  # the ids of checks made before the option existed stay
             ck.pop("fast_noise_seeds")
+        if ck["hybrid_veil_max_renders"] is None:  # the same
+            ck.pop("hybrid_veil_max_renders")
         if ck["reference"] == "monte-carlo":  # the ids of checks made before the hybrid reference existed stay
             for k in ("reference", "hybrid_photons", "hybrid_spp", "hybrid_veil_renders", "hybrid_veil_sigma_px",
-                      "hybrid_order"):
-                ck.pop(k)
+                      "hybrid_order", "hybrid_veil_max_renders"):
+                ck.pop(k, None)
         h = hashlib.sha1(json.dumps(ck, sort_keys=True).encode()).hexdigest()[:6]
         return f"{self.case_id(case)}__check-{h}"
 
@@ -451,6 +461,7 @@ class CheckTable(FileModel):
     hybrid_photons: Annotated[Int, Field(ge=10_000, le=1_000_000_000)] = 1_000_000
     hybrid_spp: Annotated[Int, Field(ge=1, le=65_536)] = 64
     hybrid_veil_renders: Annotated[Int, Field(ge=1, le=256)] = 16
+    hybrid_veil_max_renders: Annotated[Int, Field(ge=1, le=1024)] | None = None
     hybrid_veil_sigma_px: Annotated[Real, Field(ge=0.0, le=64.0)] = 4.0
     hybrid_order: Annotated[Int, Field(ge=0, le=6)] | None = None
     hybrid_max_seeds: Annotated[Int, Field(ge=2, le=1024)] | None = None
@@ -462,6 +473,11 @@ class CheckTable(FileModel):
             v = getattr(self, name)
             if v is not None and v < self.seeds:
                 raise invalid(f"{name} {v} is below seeds {self.seeds}", field=name, allowed=f">= seeds ({self.seeds})")
+        v = self.hybrid_veil_max_renders
+        if v is not None and v < self.hybrid_veil_renders:
+            k = self.hybrid_veil_renders
+            raise invalid(f"hybrid_veil_max_renders {v} is below hybrid_veil_renders {k}",
+                          field="hybrid_veil_max_renders", allowed=f">= hybrid_veil_renders ({k})")
         return self
 
     def settings(self) -> CheckSettings:
@@ -470,6 +486,7 @@ class CheckTable(FileModel):
                              integrator=self.integrator, max_seeds=self.max_seeds, target_se=self.target_se,
                              reference=self.reference, hybrid_photons=self.hybrid_photons,
                              hybrid_spp=self.hybrid_spp, hybrid_veil_renders=self.hybrid_veil_renders,
+                             hybrid_veil_max_renders=self.hybrid_veil_max_renders,
                              hybrid_veil_sigma_px=self.hybrid_veil_sigma_px, hybrid_order=self.hybrid_order,
                              hybrid_max_seeds=self.hybrid_max_seeds, fast_noise_seeds=self.fast_noise_seeds)
 

@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from rigsim.render.hybrid import (HybridSettings, hybrid_image, hybrid_reflected, smooth_chart_irradiance,
-                                  smooth_chart_veil, supports_hybrid)
+                                  smooth_chart_veil, supports_hybrid, veil_renders_for)
 from tests.render.helpers import light_geometry
 
 pytestmark = pytest.mark.render
@@ -223,3 +223,29 @@ def test_the_hybrid_reference_applies_to_a_chart_lit_by_one_kind_of_light_in_wat
         hybrid_reflected(_scene(target="black-disk"), width=8, height=6, wavelength_nm=[450.0, 550.0])
     with pytest.raises(ValueError, match="group must be"):
         hybrid_image(None, np.zeros((2, 2, 1)), group="daylight")
+
+
+def test_the_veil_render_count_is_the_cheapest_for_the_noise_and_stays_in_its_range():
+    """veil_renders_for: the integer k in [k_min, k_max] that minimises time x summed variance,
+    (pass_s + k render_s)(V/k + P), found by brute force over every k; none beyond its bounds; no veil noise:
+    the fewest, no pass noise: the most; bad bounds or costs refused."""
+    rng = np.random.default_rng(7)
+    for _ in range(300):
+        v = rng.lognormal(-6, 3, 40)
+        p = rng.lognormal(-8, 2, 40)
+        render_s, pass_s = rng.uniform(0.5, 10), rng.uniform(10, 400)
+        k_min, k_max = sorted(int(x) for x in rng.integers(1, 300, 2))
+        k = veil_renders_for(v, p, render_s=render_s, pass_s=pass_s, k_min=k_min, k_max=k_max)
+        ks = np.arange(k_min, k_max + 1)
+        cost = (pass_s + ks * render_s) * (v.sum() / ks + p.sum())
+        assert k_min <= k <= k_max
+        assert (pass_s + k * render_s) * (v.sum() / k + p.sum()) == pytest.approx(cost.min(), rel=1e-12)
+    # a veil 10^4 times as noisy as the pass, a pass 50 renders' time: k* = sqrt(50 * 1e4) ~ 707
+    assert veil_renders_for([1e-2], [1e-6], render_s=1.0, pass_s=50.0, k_min=16, k_max=1024) in (707, 708)
+    assert veil_renders_for([0.0, 0.0], [1e-4, 1e-4], render_s=1, pass_s=50, k_min=4, k_max=64) == 4
+    assert veil_renders_for([1e-3, np.nan], [0.0, 1.0], render_s=1, pass_s=50, k_min=4, k_max=64) == 64
+    for bad in ({"k_min": 0, "k_max": 4}, {"k_min": 8, "k_max": 4}):
+        with pytest.raises(ValueError):
+            veil_renders_for([1.0], [1.0], render_s=1, pass_s=1, **bad)
+    with pytest.raises(ValueError):
+        veil_renders_for([1.0], [1.0], render_s=0, pass_s=1, k_min=1, k_max=2)

@@ -362,6 +362,50 @@ def test_multiple_scattering_is_a_render_option_of_fast_studies(tmp_path):
     assert "render.multiple_scattering" in str(e.value) and "\n" not in str(e.value)
 
 
+def test_a_hybrid_check_chooses_its_renders_veil_per_image_from_its_pilot(tmp_path, monkeypatch):
+    """[check] hybrid_veil_max_renders: after the pilot (2 images of 2 renders' veil) the count is chosen from the
+    split of the pilot's noise into one render's veil and one camera pass's light (relative variances of the
+    judged regions, finite, the veil's not all zero) and the renders' and passes' costs (their times); every image
+    is then made again of that many renders, the pilot's among them, no camera pass twice; the record says how
+    many.  Run again choosing the pilot's count, it keeps the pilot's images (other references, nothing made)."""
+    import rigsim.render.hybrid as hy
+    from rigsim.study.case import cached_render_dir, compute_check
+
+    seen = {}
+
+    def choose(v, p, *, render_s, pass_s, k_min, k_max):
+        seen.update(v=np.asarray(v, float), p=np.asarray(p, float), render_s=render_s, pass_s=pass_s,
+                    k_min=k_min, k_max=k_max)
+        return k_max
+
+    monkeypatch.setattr(hy, "veil_renders_for", choose)
+    passes = []
+    real = hy.hybrid_reflected
+    monkeypatch.setattr(hy, "hybrid_reflected", lambda *a, **k: passes.append(k["seed"]) or real(*a, **k))
+    extra = ("\n[check]\nwidth = 24\nheight = 16\nspp = 2\nseeds = 2\nreference = \"hybrid\"\n"
+             "hybrid_photons = 20000\nhybrid_spp = 1\nhybrid_veil_renders = 2\nhybrid_veil_max_renders = 3\n")
+    spec = load_study(fast_study(tmp_path, waters='["coastal"]', distances="[1.5]", targets='["colorchecker"]',
+                                 render_extra="check_with_mitsuba = 1", extra=extra))
+    case = spec.check_cases()[0]
+    cache = tmp_path / "mc"
+    rec = compute_check(spec, case, render_cache=cache)["record"]
+    assert seen["k_min"] == 2 and seen["k_max"] == 3 and seen["render_s"] > 0 and seen["pass_s"] > 0
+    assert seen["v"].shape == seen["p"].shape and seen["v"].size >= 24 * 3  # the patches x colour groups at least
+    assert np.all(np.isfinite(seen["v"])) and np.all(np.isfinite(seen["p"])) and seen["v"].max() > 0
+    assert rec["hybrid"]["veil_renders"] == 3 and rec["pilot"]["veil_renders_chosen"] == 3
+    assert rec["pilot"]["veil_renders"] == 2 and np.isfinite(rec["pilot"]["se_p90_predicted"])
+    n = rec["seeds"]
+    assert len(list(cached_render_dir(cache, spec, case).glob("render-*/spectral.npz"))) == 3 * n
+    assert len(passes) == n == len(set(passes))
+    with np.load(sorted(cached_render_dir(cache, spec, case).glob("hybrid-*.npz"))[0]) as z:
+        assert float(z["seconds"]) > 0  # the pass's time is kept for the next run's choice
+    monkeypatch.setattr(hy, "veil_renders_for", lambda v, p, **k: k["k_min"])
+    rec2 = compute_check(spec, case, render_cache=cache)["record"]  # the kept renders and passes: nothing new
+    assert rec2["hybrid"]["veil_renders"] == 2 and rec2["pilot"]["veil_renders_chosen"] == 2
+    assert len(passes) == n and len(list(cached_render_dir(cache, spec, case).glob("render-*"))) == 3 * n
+    assert [r["reference"] for r in rec2["regions"]] != [r["reference"] for r in rec["regions"]]
+
+
 def test_a_hybrid_check_references_the_chart_by_light_tracing_and_keeps_its_parts(tmp_path, monkeypatch):
     """[check] reference = "hybrid": a chart case's reference images are renders whose flash is their veil plus
     the chart's light by light tracing and a camera pass (rigsim.render.hybrid), each kept beside the renders
