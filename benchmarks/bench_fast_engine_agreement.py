@@ -149,6 +149,7 @@ CHECK_ONLY_COMMITS: dict[str, str] = {
     "b7e6fc4": "the fast engine's noise from further renders' photon batches (the check's SE, not the image)",
     "332b096": "a hybrid image averages 16 renders' veil by default (the study's reference, not the fast engine)",
     "30b92db": "tidying of the check's code (same behaviour)",
+    "65cfdf0": "the hybrid reference's renders per image chosen from its pilot (the reference, not the fast engine)",
 }
 
 
