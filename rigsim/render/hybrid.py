@@ -50,8 +50,8 @@ from rigsim.scene.types import Scene
 from rigsim.spectrum import band_average, band_edges
 
 __all__ = ["CELLS", "CAMERA_CELLS", "DEFAULT_FIT_ORDER", "PASS_RENDER_COST_RATIO", "HybridSettings",
-           "emissive_camera_pass", "hybrid_group", "hybrid_image", "hybrid_reflected", "smooth_chart_irradiance", "smooth_chart_veil",
-           "supports_hybrid", "veil_renders_for"]
+           "emissive_camera_pass", "hybrid_group", "hybrid_image", "hybrid_reflected", "smooth_chart_irradiance",
+           "smooth_chart_veil", "supports_hybrid", "veil_renders_for"]
 
 mi, dr = mitsuba()
 

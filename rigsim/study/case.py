@@ -255,6 +255,10 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
             np.asarray(fast.layers["object_id"]), fast.meta.get("object_ids", {}), target_kind).items()
             for g, idx in colour_groups(fast.wavelength_nm).items()]
 
+    def region_means(a) -> list[float]:
+        """Means of an image's (rows, cols, bands) array over each judged region and colour group."""
+        return [float(a[m][:, idx].mean()) for _, _, m, idx in veil["masks"]]
+
     def reference(i):
         """Reference image ``i``: render ``i``; or (hybrid) the mean of renders ``i·k … i·k + k − 1`` (k
         ``hybrid_veil_renders``, or as chosen after the pilot: ``hybrid_veil_max_renders``) with its chart light
@@ -268,15 +272,14 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
         renders = [mc(i * k + j) for j in range(k)]
         for j, r in enumerate(renders):  # each render's veil over the judged regions (the pilot's noise split)
             if i * k + j not in veil["render"]:
-                v = hybrid_image(r, np.zeros_like(np.asarray(r.radiance, float)), group=group,
-                                 veil_sigma_px=ck.hybrid_veil_sigma_px).radiant_exposure(1.0)
-                veil["render"][i * k + j] = [float(v[m][:, idx].mean()) for _, _, m, idx in veil["masks"]]
+                veil["render"][i * k + j] = region_means(hybrid_image(
+                    r, np.zeros_like(np.asarray(r.radiance, float)), group=group,
+                    veil_sigma_px=ck.hybrid_veil_sigma_px).radiant_exposure(1.0))
                 veil["render_s"].append(float(r.meta.get("wall_time_s", float("nan"))))
         img = mean_image(renders)
         hs = HybridSettings(photons=ck.hybrid_photons, spp=ck.hybrid_spp, order=fit_order)
         f = None if keep is None else keep / f"{hs.key()}-{i:03d}.npz"
-        refl = _read_array(f, (ck.height, ck.width, len(wl)))
-        seconds = _read_seconds(f)
+        refl, seconds = _read_array(f, (ck.height, ck.width, len(wl)))
         if refl is None:
             t = time.perf_counter()
             refl, _ = hybrid_reflected(scene, width=ck.width, height=ck.height, wavelength_nm=wl, settings=hs,
@@ -285,7 +288,7 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
             if f is not None:
                 _write_array(f, refl, seconds=seconds)
         if i not in veil["pass"]:
-            veil["pass"][i] = [float(refl[m][:, idx].mean()) for _, _, m, idx in veil["masks"]]
+            veil["pass"][i] = region_means(refl)
             veil["pass_s"].append(seconds)
         return hybrid_image(img, refl, group=group, veil_sigma_px=ck.hybrid_veil_sigma_px)
 
@@ -346,17 +349,6 @@ def _write_array(path, a: np.ndarray, seconds: float | None = None) -> None:
     atomic_write_npz(path, {"a": np.asarray(a, np.float64), **extra})
 
 
-def _read_seconds(path) -> float:
-    """The seconds a kept array took to make (NaN where unknown)."""
-    if path is None or not path.is_file():
-        return float("nan")
-    try:
-        with np.load(path) as z:
-            return float(z["seconds"]) if "seconds" in z.files else float("nan")
-    except (OSError, ValueError, KeyError):
-        return float("nan")
-
-
 def _veil_allocation(ck, veil: dict, regions: list, keys: set) -> tuple[int, float]:
     """Renders' veil per hybrid image for the rest of a check, from its pilot
     (:func:`rigsim.render.hybrid.veil_renders_for`), and the judged regions' relative SE (90th percentile) that
@@ -389,17 +381,19 @@ def _veil_allocation(ck, veil: dict, regions: list, keys: set) -> tuple[int, flo
     return k, float(np.percentile(se, 90)) if se.size else float("nan")
 
 
-def _read_array(path, shape: tuple):
-    """A kept array of ``shape``, or None (none, unreadable, another shape: made again)."""
+def _read_array(path, shape: tuple) -> tuple[np.ndarray | None, float]:
+    """A kept array of ``shape`` and the seconds it took (NaN where not kept), or ``(None, nan)`` (none,
+    unreadable, another shape: made again)."""
     if path is None or not path.is_file():
-        return None
+        return None, float("nan")
     try:
         with np.load(path) as z:
             a = z["a"]
+            seconds = float(z["seconds"]) if "seconds" in z.files else float("nan")
     except (OSError, ValueError, KeyError) as exc:
         log.warning("%s: %s; making it again", path, exc)
-        return None
-    return a if a.shape == tuple(shape) and np.all(np.isfinite(a)) else None
+        return None, float("nan")
+    return (a, seconds) if a.shape == tuple(shape) and np.all(np.isfinite(a)) else (None, float("nan"))
 
 
 def cached_render_dir(root, spec: StudySpec, case: Case):
