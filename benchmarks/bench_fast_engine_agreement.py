@@ -150,6 +150,7 @@ CHECK_ONLY_COMMITS: dict[str, str] = {
     "332b096": "a hybrid image averages 16 renders' veil by default (the study's reference, not the fast engine)",
     "30b92db": "tidying of the check's code (same behaviour)",
     "65cfdf0": "the hybrid reference's renders per image chosen from its pilot (the reference, not the fast engine)",
+    "67fa609": "tidying of the hybrid check's code (same behaviour)",
 }
 
 
