@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import math
 import sys
 import time
 from collections import defaultdict
@@ -192,7 +193,7 @@ def print_status(path: Path = PUBLISHED) -> int:
     old = [r for r in rows if not same[r.get("engine") or ""]]
     shown = path.relative_to(ROOT) if path.is_relative_to(ROOT) else path
     print(f"{shown}: {len(rows)} rows, {n(rows, 'cells')} cells, {n(rows, 'beyond')} beyond tolerance "
-          f"+ t*SE; {over(rows)} rows whose worst cell is beyond its tolerance (within the reference's noise); "
+          f"+ t*SE; {over(rows)} rows whose worst cell is beyond its tolerance (within the noise of the difference: the reference's and the fast engine's); "
           f"{n(rows, 'beyond_visibility')} chart cells beyond the chart's visibility, not judged")
     engines = ", ".join(sorted({r['engine'].removeprefix('commit ') for r in cur}))
     print(f"  this checkout's fast engine{f' (measured at {engines})' if engines else ''}: {len(cur)} rows, "
@@ -412,10 +413,20 @@ def print_table(rows: list[dict]) -> None:
         tail = f"  tail {_f(r.get('monte_carlo_tail')):.1f}" if heavy_tailed(r.get("monte_carlo_tail")) else ""
         print(f"  {_f(r['deviation']):+7.1%} ± {_f(r['deviation_se']):.1%}  {r['verdict']:12s} {r['lighting']}, {r['rig']}, "
               f"{r['water']}, {r['target']} at {_f(r['distance_m']):g} m: {r['quantity']} {r['region']} {r['group']}{tail}")
-    se = sorted(_f(r["deviation_se"]) for r in rows if r["quantity"] == "radiance")
-    if se:
-        print(f"\nreference noise (SE of the Monte Carlo mean, radiance cells): median {se[len(se) // 2]:.1%}, "
-              f"90th percentile {se[int(0.9 * (len(se) - 1))]:.1%}")
+    rad = [r for r in rows if r["quantity"] == "radiance"]
+
+    def quantiles(xs) -> str:
+        xs = sorted(x for x in xs if math.isfinite(x))
+        if not xs:
+            return "not measured"
+        return f"median {xs[len(xs) // 2]:.1%}, 90th percentile {xs[int(0.9 * (len(xs) - 1))]:.1%}"
+
+    if rad:  # the difference's noise, and each engine's own part of it (relative SEs, radiance cells)
+        print(f"\nnoise of the differences (SE of fast / reference - 1, radiance cells): "
+              f"{quantiles(_f(r['deviation_se']) for r in rad)}; of it the reference's "
+              f"{quantiles(_f(r['monte_carlo_se']) / _f(r['monte_carlo']) for r in rad if _f(r['monte_carlo']) > 0)}"
+              f", the fast engine's own photon noise "
+              f"{quantiles(_f(r['fast_se']) / _f(r['fast']) for r in rad if _f(r['fast']) > 0)}")
     n_bad = sum(r["verdict"] == "disagrees" for r in rows)
     per_case = {(r["lighting"], r["rig"], r["water"], r["target"], r["distance_m"]): int(r["seeds"]) for r in rows}
     by_water = defaultdict(list)
