@@ -193,7 +193,8 @@ def print_status(path: Path = PUBLISHED) -> int:
     old = [r for r in rows if not same[r.get("engine") or ""]]
     shown = path.relative_to(ROOT) if path.is_relative_to(ROOT) else path
     print(f"{shown}: {len(rows)} rows, {n(rows, 'cells')} cells, {n(rows, 'beyond')} beyond tolerance "
-          f"+ t*SE; {over(rows)} rows whose worst cell is beyond its tolerance (within the noise of the difference: the reference's and the fast engine's); "
+          f"+ t*SE; {over(rows)} rows whose worst cell is beyond its tolerance (within the noise of the difference: "
+          f"the reference's and the fast engine's); "
           f"{n(rows, 'beyond_visibility')} chart cells beyond the chart's visibility, not judged")
     engines = ", ".join(sorted({r['engine'].removeprefix('commit ') for r in cur}))
     print(f"  this checkout's fast engine{f' (measured at {engines})' if engines else ''}: {len(cur)} rows, "
