@@ -32,6 +32,13 @@ the fast engine): a run asked for more renders (``--max-seeds``) renders only th
 checks a changed fast engine against the same references without rendering them again (renders a sampler since changed
 drew are not reused: :func:`rigsim.render.integrators.integrator_key`).
 
+``--publish`` writes the per-water, per-rig summary to ``data/fast_engine/agreement.csv`` (what the rig designer and
+``--status`` read) and each row's every cell to ``data/fast_engine/cells/<lighting>__<water>__<rig>__<distances>.csv.gz``
+(fast and reference values, each one's standard error, the reference's tail, the verdict; headed by the settings and
+the command): the table's numbers with what they came from, for reading cell by cell and for judging a later change of
+the fast engine against the same references.  Rows published before 2026-12-07 have cells only where their run was
+still on disk then (14 of 118).
+
 ``--reference hybrid``: the chart cases lit by strobes or by continuous lights are referenced by hybrid images
 instead (:mod:`rigsim.render.hybrid`: the renders' veil plus the chart's light traced from the lights and seen
 through the water by a camera pass; kept beside the renders), where the renders' chart patches are
@@ -47,6 +54,7 @@ from __future__ import annotations
 import argparse
 import csv
 import math
+import shlex
 import sys
 import time
 from collections import defaultdict
@@ -57,6 +65,8 @@ sys.path.insert(0, str(ROOT))
 
 #: The per-water summary the rig designer shows beside its numbers (``--publish``).
 PUBLISHED = ROOT / "data" / "fast_engine" / "agreement.csv"
+#: Each published row's every cell (``--publish``; rigsim.metrics.agreement.write_cells).
+CELLS = ROOT / "data" / "fast_engine" / "cells"
 
 STROBE_RIGS = ("twin-strobes-45-wide", "twin-strobes-close-to-port", "twin-strobes-edge-lighting",
                "single-strobe-short-arm", "video-lights-pair")
@@ -367,8 +377,11 @@ def main(argv=None) -> int:
         settings = f"{w}x{h} px{ms}{noise}, Monte Carlo {args.seeds}-{max(args.seeds, args.max_seeds)} x {args.spp} spp{hyb}, " + "; ".join(
             x for x in (f"rigs {', '.join(rigs)}" if rigs else "",
                         f"daylight: ambient-only at {depths} m, sun at 30 deg" if depths else "") if x)
-        write_published(rows, PUBLISHED, settings=settings, engine=_engine_id())
-        print(f"\nper-water summary: {PUBLISHED}")
+        command = "python benchmarks/bench_fast_engine_agreement.py " + " ".join(
+            shlex.quote(a) for a in (sys.argv[1:] if argv is None else argv))
+        write_published(rows, PUBLISHED, settings=settings, engine=_engine_id(), cells_dir=CELLS,
+                        cells_header=command)
+        print(f"\nper-water summary: {PUBLISHED}; each row's cells: {CELLS}")
     return 0
 
 

@@ -64,7 +64,8 @@ from rigsim.spectral_image import SPECTRAL_LAYERS
 from rigsim.spectrum import colour_groups
 
 __all__ = ["RegionDeviation", "MetricDeviation", "CLEAR_WATERS", "MIN_CONTRAST", "PublishedAgreement",
-           "published_agreement", "write_published", "PUBLISHED_TABLE", "tolerance_for", "comparison_regions",
+           "published_agreement", "write_published", "write_cells", "read_cells", "cells_file_name", "CELL_COLUMNS",
+           "PUBLISHED_TABLE", "tolerance_for", "comparison_regions",
            "compare_renders", "moderated_relative_se", "MIN_MODERATED", "verdict", "noise_multiplier", "relative_se",
            "HEAVY_TAIL", "heavy_tailed",
            "case_key", "target_tails", "mean_image", "pooled_metric", "BEYOND_VISIBILITY", "chart_beyond_visibility",
@@ -617,7 +618,65 @@ def published_agreement(water_name: str, lighting: str = "strobes", rig: str | N
     return max(same or found, key=lambda p: abs(p.worst_deviation), default=None)
 
 
-def write_published(rows: list[dict], path, *, settings: str, engine: str = "") -> None:
+#: Columns of a published row's cells file (:func:`write_published`, ``cells_dir``): every cell the row's run
+#: compared (the study's ``agreement.csv`` columns that say what and how well), radiance cells and metrics alike.
+CELL_COLUMNS = ("lighting", "rig", "water", "target", "distance_m", "tolerance", "width", "height", "spp", "seeds",
+                "reference", "quantity", "region", "group", "pixels", "fast", "monte_carlo", "monte_carlo_se",
+                "fast_se", "deviation", "deviation_se", "monte_carlo_tail", "verdict")
+
+
+def cells_file_name(lighting: str, water: str, rig: str, distances_m: str) -> str:
+    """The file of one published row's cells: ``strobes__jerlov-II__twin-strobes-45-wide__0.5-1-3-6.csv.gz``."""
+    return f"{lighting}__{water}__{rig}__{distances_m.replace(', ', '-')}.csv.gz"
+
+
+def _cell_text(v) -> str:
+    """A cell's value as written: whole numbers as they are, other numbers to 6 significant digits (the cells'
+    own noise is far above that), text as it is."""
+    if v is None:
+        return ""
+    if isinstance(v, (bool, int, np.integer)):
+        return str(v)
+    if isinstance(v, (float, np.floating)):
+        return f"{float(v):.6g}"
+    text = str(v)
+    try:
+        f = float(text)
+    except ValueError:
+        return text
+    return text if text.strip().lstrip("-").isdigit() else f"{f:.6g}"
+
+
+def write_cells(path, rows: list[dict], *, header: str = "") -> None:
+    """Write one published row's cells (:data:`CELL_COLUMNS`) to ``path``, gzip-compressed and atomically, with
+    ``header`` as ``#`` comment lines (what made them).  The bytes depend only on the contents (no time stamp)."""
+    import csv
+    import gzip
+    import io
+
+    from rigsim.fileio import atomic_write_bytes
+
+    buf = io.StringIO()
+    for line in header.splitlines():
+        buf.write(f"# {line}\n")
+    wr = csv.DictWriter(buf, fieldnames=list(CELL_COLUMNS), lineterminator="\n", extrasaction="ignore")
+    wr.writeheader()
+    for r in rows:
+        wr.writerow({c: _cell_text(r.get(c, "" if c != "lighting" else "strobes")) for c in CELL_COLUMNS})
+    atomic_write_bytes(path, gzip.compress(buf.getvalue().encode(), mtime=0))
+
+
+def read_cells(path) -> list[dict]:
+    """The cells of one published row (:func:`write_cells`), as text fields."""
+    import csv
+    import gzip
+
+    with gzip.open(path, "rt", newline="") as fh:
+        return list(csv.DictReader(ln for ln in fh if not ln.startswith("#")))
+
+
+def write_published(rows: list[dict], path, *, settings: str, engine: str = "", cells_dir=None,
+                    cells_header: str = "") -> None:
     """Write the per-lighting, per-water, per-rig, per-distance-set summary of agreement rows (``agreement.csv``
     of studies, plus a ``lighting`` column; ``cells`` counts the judged cells, ``beyond_visibility`` the chart cells
     of cases beyond the chart's visibility, left out of ``worst_*`` and ``beyond``; blank in rows from before
@@ -626,7 +685,12 @@ def write_published(rows: list[dict], path, *, settings: str, engine: str = "") 
     in a new row's is replaced by it (rows of the older tables without a ``rig`` column, which summed over rigs,
     are dropped).  ``engine``: which fast engine was measured (the benchmark writes the checkout's commit,
     ``"commit 692f13b"``, with ``-dirty`` if the package differed from it), so a reader sees which rows a later
-    change of the engine has not re-made."""
+    change of the engine has not re-made.
+
+    ``cells_dir``: also write each new row's every cell there (:func:`write_cells`, :func:`cells_file_name`;
+    ``cells_header`` says what made them) and remove the cells of the rows it supersedes: the table's numbers
+    with what they came from, cell by cell (the fast and reference values, each one's standard error, the
+    reference's tail), which a later change of the fast engine can be judged against."""
     import csv
     import datetime
     import io
@@ -655,6 +719,16 @@ def write_published(rows: list[dict], path, *, settings: str, engine: str = "") 
         covered = {c[2] for c in cases}
         for key in [k for k in old if k[:3] == (light, water, rig) and _distance_set(k[3]) <= covered]:
             del old[key]  # superseded: its distances are all in the new row
+            if cells_dir is not None:
+                (Path(cells_dir) / cells_file_name(*key)).unlink(missing_ok=True)
+        if cells_dir is not None:
+            Path(cells_dir).mkdir(parents=True, exist_ok=True)
+            write_cells(Path(cells_dir) / cells_file_name(light, water, rig, dist),
+                        sorted(every, key=lambda r: (r["target"], float(r["distance_m"]))) +
+                        [r for r in rows if r["quantity"] != "radiance" and
+                         (r.get("lighting", "strobes"), r["water"], r["rig"]) == (light, water, rig)],
+                        header=f"{light}, {water}, {rig}, {dist} m: measured {today}, {engine or 'engine not recorded'}"
+                               f"\n{settings}" + (f"\n{cells_header}" if cells_header else ""))
         old[(light, water, rig, dist)] = {
             "lighting": light, "water": water, "rig": rig, "cases": len(cases), "distances_m": dist,
             "worst_deviation": f"{float(w['deviation']):.4f}", "worst_se": f"{float(w['deviation_se']):.4f}",

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import gzip
+from pathlib import Path
+
 import numpy as np
 import pytest
 
@@ -519,3 +522,65 @@ def test_moderated_noise_pools_a_common_noise_and_leaves_too_few_regions_alone()
     odd[:3] = [0.0, np.nan, np.inf]
     out = moderated_relative_se(odd, 3)
     assert out[0] == 0.0 and np.isnan(out[1]) and np.isinf(out[2]) and np.all(np.isfinite(out[3:]))
+
+
+
+def test_the_published_table_keeps_each_rows_cells_and_drops_those_of_a_row_it_replaces(tmp_path, monkeypatch):
+    """``write_published(..., cells_dir=...)`` writes every cell of each new row (radiance cells and the row's
+    metric cells) to one gzip file per row, byte-identical for the same cells; a row that a later run supersedes
+    loses its cells file with its line, and a row of other distances keeps its own."""
+    import rigsim.data
+    from rigsim.metrics.agreement import PUBLISHED_TABLE, cells_file_name, read_cells, write_published
+
+    monkeypatch.setattr(rigsim.data, "DATA_DIR", tmp_path)
+    path, cells = tmp_path / PUBLISHED_TABLE, tmp_path / "cells"
+    contrast = {**_row("wide", "jerlov-9C", "target", 0.3), "quantity": "contrast_radiance",
+                "fast": 0.1234567891, "monte_carlo": 0.11, "pixels": 12, "seeds": 4}
+    first = [_row("wide", "jerlov-9C", "disk", 0.02), _row("wide", "jerlov-9C", "open water", -0.04123456789),
+             contrast, _row("edge", "jerlov-9C", "disk", 0.01)]
+    write_published(first, path, settings="test", cells_dir=cells, cells_header="the command")
+    f = cells / cells_file_name("strobes", "jerlov-9C", "wide", "1")
+    assert f.name == "strobes__jerlov-9C__wide__1.csv.gz"
+    got = read_cells(f)
+    assert [(r["quantity"], r["region"]) for r in got] == [("radiance", "disk"), ("radiance", "open water"),
+                                                          ("contrast_radiance", "target")]
+    assert got[1]["deviation"] == "-0.0412346" and got[2]["fast"] == "0.123457" and got[2]["pixels"] == "12"
+    assert [r["rig"] for r in read_cells(cells / cells_file_name("strobes", "jerlov-9C", "edge", "1"))] == ["edge"]
+    assert "# the command" in gzip.decompress(f.read_bytes()).decode().splitlines()[2]
+    once = f.read_bytes()
+    write_published(first, path, settings="test", cells_dir=cells, cells_header="the command")
+    assert f.read_bytes() == once  # no time stamp in the file: the same cells, the same bytes
+    # 6 m beside it: a second file; then 1 and 6 m together supersede both rows and both files
+    write_published([_row("wide", "jerlov-9C", "disk", 0.05, distance=6.0)], path, settings="test", cells_dir=cells)
+    assert (cells / "strobes__jerlov-9C__wide__6.csv.gz").is_file() and f.is_file()
+    write_published([_row("wide", "jerlov-9C", "disk", 0.01, distance=d) for d in (1.0, 6.0)], path,
+                    settings="test", cells_dir=cells)
+    assert sorted(p.name for p in cells.iterdir()) == ["strobes__jerlov-9C__edge__1.csv.gz",
+                                                       "strobes__jerlov-9C__wide__1-6.csv.gz"]
+
+
+def test_every_published_cells_file_is_the_row_it_stands_beside():
+    """The committed cells (data/fast_engine/cells) against the committed table: each file has its row, and the
+    row's worst cell, its count of judged cells and of cells beyond are the file's (a row re-made without its
+    cells, or cells left from a row since replaced, fail here)."""
+    import csv
+
+    from rigsim.metrics.agreement import cells_file_name, judged, read_cells
+
+    root = Path(__file__).resolve().parents[2] / "data" / "fast_engine"
+    with open(root / "agreement.csv", newline="") as fh:
+        table = {cells_file_name(r["lighting"], r["water"], r["rig"], r["distances_m"]): r
+                 for r in csv.DictReader(ln for ln in fh if not ln.startswith("#"))}
+    files = sorted((root / "cells").glob("*.csv.gz"))
+    assert files, "no cells files beside the published table"
+    for f in files:
+        assert f.name in table, f"{f.name}: no row of agreement.csv"
+        row, got = table[f.name], read_cells(f)
+        radiance = [r for r in got if r["quantity"] == "radiance"]
+        rs = [r for r in radiance if judged(r)] or radiance
+        worst = max(rs, key=lambda r: abs(float(r["deviation"])))
+        assert abs(float(worst["deviation"]) - float(row["worst_deviation"])) < 6e-5, f.name
+        assert abs(float(worst["deviation_se"]) - float(row["worst_se"])) < 6e-5, f.name
+        assert sum(judged(r) for r in radiance) == int(row["cells"]), f.name
+        assert sum(r["verdict"] == "disagrees" for r in rs) == int(row["beyond"]), f.name
+        assert {r["rig"] for r in got} == {row["rig"]} and {r["water"] for r in got} == {row["water"]}, f.name
