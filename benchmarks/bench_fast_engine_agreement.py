@@ -162,6 +162,7 @@ CHECK_ONLY_COMMITS: dict[str, str] = {
     "30b92db": "tidying of the check's code (same behaviour)",
     "65cfdf0": "the hybrid reference's renders per image chosen from its pilot (the reference, not the fast engine)",
     "67fa609": "tidying of the hybrid check's code (same behaviour)",
+    "5fadf90": "each published row's cells written beside the table (the writer of the table, not the engine)",
 }
 
 
