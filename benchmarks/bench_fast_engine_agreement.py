@@ -25,6 +25,8 @@ engines are listed (verdict "beyond visibility", the published table's ``beyond_
     python benchmarks/bench_fast_engine_agreement.py --quick --out out/b --renders-from out/a   # a fast-engine change
                                                                   # against the Monte Carlo renders a run into out/a kept
     python benchmarks/bench_fast_engine_agreement.py --status   # the published table: which rows this engine measured
+    python benchmarks/bench_fast_engine_agreement.py --rejudge --publish   # a changed fast engine against the kept
+                                                                  # cells of the published rows (fast images only)
 
 Each Monte Carlo render is kept as it finishes (``<out>/<lighting>/mc-renders``, keyed by the scene's contents, seed,
 bands and render settings, the renderer's default sampling options among them — not by where the checkout is, nor by
@@ -37,7 +39,10 @@ drew are not reused: :func:`rigsim.render.integrators.integrator_key`).
 (fast and reference values, each one's standard error, the reference's tail, the verdict; headed by the settings and
 the command): the table's numbers with what they came from, for reading cell by cell and for judging a later change of
 the fast engine against the same references.  Rows published before 2026-12-07 have cells only where their run was
-still on disk then (14 of 118).
+still on disk then (14 of 118).  ``--rejudge`` makes each such row's fast images again with this checkout (the same
+study settings and seeds: :func:`rigsim.study.case.fast_check_images`) and compares them with the kept reference numbers
+(:func:`rigsim.metrics.agreement.compare_to_cells`): about 1.5 min per row on 2 cores, and it prints how far the fast
+values moved (0.00 % for an unchanged engine: Jerlov II 45-wide, 2026-12-07, 324 cells).
 
 ``--reference hybrid``: the chart cases lit by strobes or by continuous lights are referenced by hybrid images
 instead (:mod:`rigsim.render.hybrid`: the renders' veil plus the chart's light traced from the lights and seen
@@ -285,11 +290,20 @@ def main(argv=None) -> int:
     ap.add_argument("--status", action="store_true",
                     help=f"print {PUBLISHED.relative_to(ROOT)} by the fast engine each row measured (this checkout's or "
                          "an earlier one) and the rows to make again; renders nothing")
+    ap.add_argument("--rejudge", action="store_true",
+                    help=f"judge this checkout's fast engine against the references the published rows kept "
+                         f"({CELLS.relative_to(ROOT)}; --waters / --rigs select rows when given): the fast images alone, "
+                         "no Monte Carlo (minutes per row); with --publish those rows are re-made")
     ap.add_argument("--publish", action="store_true",
                     help=f"write the per-water summary to {PUBLISHED.relative_to(ROOT)} (the rig designer shows it)")
     args = ap.parse_args(argv)
     if args.status:
         return print_status()
+    if args.rejudge:
+        picked = lambda name: set(_list(getattr(args, name))) if getattr(args, name) != ap.get_default(name) else None  # noqa: E731
+        return rejudge(waters=picked("waters"), rigs=picked("rigs"), publish=args.publish,
+                       command="python benchmarks/bench_fast_engine_agreement.py " + " ".join(
+                           shlex.quote(a) for a in (sys.argv[1:] if argv is None else argv)))
     if args.quick:
         args.waters, args.distances, args.rigs, args.depths = "clear,coastal-regions,jerlov-3C", "1,3", \
             "twin-strobes-45-wide", ""
@@ -383,6 +397,110 @@ def main(argv=None) -> int:
         write_published(rows, PUBLISHED, settings=settings, engine=_engine_id(), cells_dir=CELLS,
                         cells_header=command)
         print(f"\nper-water summary: {PUBLISHED}; each row's cells: {CELLS}")
+    return 0
+
+
+def _settings_value(settings: str, pattern: str, default):
+    import re
+
+    m = re.search(pattern, settings)
+    return m.group(1) if m else default
+
+
+def rejudge(*, waters: set | None, rigs: set | None, publish: bool, command: str) -> int:
+    """Each published row that kept its cells (:data:`CELLS`), judged again with this checkout's fast engine:
+    its cases' fast images made as the row's run made them (the same study settings and seeds:
+    :func:`rigsim.study.case.fast_check_images`) and compared with the kept reference numbers
+    (:func:`rigsim.metrics.agreement.compare_to_cells`); prints the table, how far the fast values moved, and
+    with ``publish`` re-makes the rows (their settings say against which references)."""
+    import tempfile
+
+    from rigsim.metrics.agreement import (BEYOND_VISIBILITY, MIN_CONTRAST, compare_to_cells, noise_multiplier,
+                                         read_cells, read_cells_header, tolerance_for, write_published)
+    from rigsim.study import load_study
+    from rigsim.study.case import case_scene, fast_check_images
+    from rigsim.study.runner import agreement_rows
+
+    files = sorted(CELLS.glob("*.csv.gz"))
+    picked = []
+    for f in files:
+        cells = read_cells(f)
+        light, water, rig = cells[0]["lighting"], cells[0]["water"], cells[0]["rig"]
+        if (waters is None or water in waters) and (rigs is None or rig in rigs):
+            picked.append((f, light, water, rig, cells))
+    if not picked:
+        print(f"no kept cells for the rows asked for (in {CELLS.relative_to(ROOT)}: {len(files)} rows)")
+        return 1
+    out_rows, moved, published = [], [], []
+    t0 = time.perf_counter()
+    with tempfile.TemporaryDirectory() as tmp:
+        for k, (f, light, water, rig, cells) in enumerate(picked, 1):
+            head = read_cells_header(f)
+            settings = head[1] if len(head) > 1 else ""
+            first = cells[0]
+            depth = light.removeprefix("daylight-").removesuffix("m") if light.startswith("daylight-") else None
+            rig_file = ROOT / "rigs" / f"{'ambient-only' if depth else rig}.toml"
+            ms = _settings_value(settings, r"multiple scattering (\w+)", "off")
+            batches = int(_settings_value(settings, r"photon batches of (\d+) renders", "1"))
+            study = Path(tmp) / f"{light}.toml"
+            study.write_text(STUDY.format(
+                name=light, rigs=[str(rig_file)], waters=[water],
+                distances=sorted({float(c["distance_m"]) for c in cells}),
+                depth=f"depth_m = {float(depth)}" if depth else "", width=int(first["width"]),
+                height=int(first["height"]), spp=int(first["spp"]), seeds=4, max_seeds=4, target_se=0.015, ms=ms,
+                reference="monte-carlo", hybrid_photons=1_000_000, hybrid_spp=64, hybrid_veil=16, hybrid_sigma=4.0,
+                fast_noise=max(0, batches - 1), hybrid_order="", hybrid_max="", hybrid_veil_max="").replace("'", '"'))
+            spec = load_study(study)
+            by_case = defaultdict(list)
+            for c in cells:
+                by_case[(c["target"], float(c["distance_m"]))].append(c)
+            rows = []
+            for case in spec.check_cases():
+                _, _, target_kind = case_scene(spec, case)
+                target = target_kind if target_kind != "mesh" else case.target
+                kept = by_case.get((target, float(case.distance_m)))
+                if not kept:
+                    continue
+                fast, fb, nb = fast_check_images(spec, case)
+                regions, metrics = compare_to_cells(fast, kept, target_kind, fast_batches=fb, noise_batches=nb)
+                seeds = int(kept[0]["seeds"])
+                unseen = None
+                if target == "colorchecker":
+                    m = next((x for x in metrics if x.metric == "contrast_radiance"), None)
+                    ref_c = next((c for c in kept if c["quantity"] == "contrast_radiance"), None)
+                    fast_below = (m.fast + 2.0 * m.fast_se < MIN_CONTRAST) if m is not None else False
+                    ref_below = (ref_c is None or float(ref_c["monte_carlo"]) - noise_multiplier(seeds) *
+                                 float(ref_c["monte_carlo_se"] or 0.0) < MIN_CONTRAST)
+                    unseen = fast_below and ref_below
+                rec = {"rig": rig, "water": water, "target": target, "distance_m": case.distance_m,
+                       "c_550_per_m": first.get("c_550_per_m"), "tolerance": tolerance_for(water),
+                       "width": first["width"], "height": first["height"], "spp": first["spp"], "seeds": seeds,
+                       "reference": first["reference"], "beyond_visibility": unseen,
+                       "regions": [r.record() for r in regions], "metrics": [m.record() for m in metrics]}
+                rows += [{**r, "lighting": light} for r in agreement_rows([rec])]
+                before = {(c["region"], c["group"]): float(c["fast"]) for c in kept if c["quantity"] == "radiance"}
+                moved += [r.fast / before[r.region, r.group] - 1.0 for r in regions if before[r.region, r.group] > 0]
+            n_kept = len({(c["target"], c["distance_m"]) for c in cells})
+            n_done = len({(r["target"], r["distance_m"]) for r in rows})
+            print(f"[{k}/{len(picked)}] {f.name}: {n_done} of {n_kept} cases in {time.perf_counter() - t0:.0f} s",
+                  flush=True)
+            if n_done != n_kept:
+                print(f"  not all of its cases are in the study its settings make: not re-made", file=sys.stderr)
+                continue
+            out_rows += rows
+            published.append((rows, light, water, rig, head, settings))
+    print()
+    print_table(out_rows)
+    mv = sorted(abs(x) for x in moved)
+    print(f"\nthe fast engine's region means against the kept ones (this checkout / the row's run - 1): median "
+          f"{mv[len(mv) // 2]:.2%}, largest {mv[-1]:.2%} over {len(mv)} cells" if mv else "")
+    if publish:
+        for rows, light, water, rig, head, settings in published:
+            was = "; ".join(head[:1])
+            write_published(rows, PUBLISHED, settings=f"{settings}; re-judged against the kept cells of the run "
+                            f"({was}): the fast images only", engine=_engine_id(), cells_dir=CELLS,
+                            cells_header="\n".join([command, "the references from:"] + head))
+        print(f"\nre-made {len(published)} rows of {PUBLISHED}")
     return 0
 
 

@@ -64,9 +64,9 @@ from rigsim.spectral_image import SPECTRAL_LAYERS
 from rigsim.spectrum import colour_groups
 
 __all__ = ["RegionDeviation", "MetricDeviation", "CLEAR_WATERS", "MIN_CONTRAST", "PublishedAgreement",
-           "published_agreement", "write_published", "write_cells", "read_cells", "cells_file_name", "CELL_COLUMNS",
+           "published_agreement", "write_published", "write_cells", "read_cells", "read_cells_header", "cells_file_name", "CELL_COLUMNS",
            "PUBLISHED_TABLE", "tolerance_for", "comparison_regions",
-           "compare_renders", "moderated_relative_se", "MIN_MODERATED", "verdict", "noise_multiplier", "relative_se",
+           "compare_renders", "compare_to_cells", "fast_estimates", "FastEstimates", "moderated_relative_se", "MIN_MODERATED", "verdict", "noise_multiplier", "relative_se",
            "HEAVY_TAIL", "heavy_tailed",
            "case_key", "target_tails", "mean_image", "pooled_metric", "BEYOND_VISIBILITY", "chart_beyond_visibility",
            "judged", "pooled_patches"]
@@ -431,15 +431,50 @@ def compare_renders(fast, references: list, target_kind: str, *, fast_batches: l
     """
     if len(references) < 2:
         raise ValueError("the reference needs at least two independent Monte Carlo renders")
+    for ref in references:
+        if ref.radiance.shape != fast.radiance.shape:
+            raise ValueError(f"the renders differ in shape: {ref.radiance.shape} vs {fast.radiance.shape}")
+    est = fast_estimates(fast, target_kind, fast_batches=fast_batches, noise_batches=noise_batches)
+    h_refs = [r.radiant_exposure(1.0) for r in references]
+    n = len(references)
+    out: list[RegionDeviation] = []
+    for (name, g, px, f, f_se), (m, idx) in zip(est.regions, est.masks):
+        per = np.array([h[m][:, idx].mean() for h in h_refs])
+        med = float(np.median(per))
+        out.append(RegionDeviation(name, g, px, f, float(per.mean()), float(per.std(ddof=1) / math.sqrt(n)),
+                                   float(per.max() / med) if med > 0 else float("nan"), f_se))
+    mref, ref_se = pooled_metric(references, est.radiance_metrics)
+    return out, _metric_deviations(est, mref, ref_se)
+
+
+@dataclass
+class FastEstimates:
+    """The fast engine's side of a check (:func:`fast_estimates`): each judged region × colour group as
+    ``(region, group, pixels, fast, fast_se)`` with its mask and band indices (``masks``: ``(pixels, bands)``),
+    the scene metrics of the fast image with their noise (``metrics``: ``{name: (value, se)}``), and the function
+    that measures them on any image of the scene (``radiance_metrics``: the fast image's masks)."""
+
+    regions: list
+    masks: list
+    metrics: dict
+    radiance_metrics: object
+
+
+def fast_estimates(fast, target_kind: str, *, fast_batches: list | None = None,
+                   noise_batches: list | None = None) -> FastEstimates:
+    """The fast image's region means and scene metrics with their photon noise (the batches as in
+    :func:`compare_renders`): what a check compares with its reference, whichever form the reference takes —
+    Monte Carlo renders (:func:`compare_renders`) or the numbers a published row kept of them
+    (:func:`compare_to_cells`)."""
     fast_batches = list(fast_batches or [])
     nb = len(fast_batches)
     extra = [list(g) for g in noise_batches or []] if nb >= 2 else []  # (no batches of its own: noiseless)
     if any(len(g) != nb for g in extra):
         raise ValueError(f"each render of noise_batches needs as many batch images as fast_batches ({nb})")
     batch_sets = [fast_batches] + extra
-    for ref in references + [b for g in batch_sets for b in g]:
-        if ref.radiance.shape != fast.radiance.shape:
-            raise ValueError(f"the renders differ in shape: {ref.radiance.shape} vs {fast.radiance.shape}")
+    for b in (b for g in batch_sets for b in g):
+        if b.radiance.shape != fast.radiance.shape:
+            raise ValueError(f"the renders differ in shape: {b.radiance.shape} vs {fast.radiance.shape}")
     dof = len(batch_sets) * (nb - 1) if nb >= 2 else 0  # of the fast engine's noise estimate
 
     def batch_se(per_group) -> float:
@@ -455,24 +490,17 @@ def compare_renders(fast, references: list, target_kind: str, *, fast_batches: l
     regions = comparison_regions(oid, fast.meta.get("object_ids", {}), target_kind)
     groups = colour_groups(fast.wavelength_nm)
     h_fast = fast.radiant_exposure(1.0)
-    h_refs = [r.radiant_exposure(1.0) for r in references]
     h_bats = [[b.radiant_exposure(1.0) for b in g] for g in batch_sets]
-    n = len(references)
-    out: list[RegionDeviation] = []
+    est, where = [], []
     for name, m in regions.items():
         for g, idx in groups.items():
-            f = float(h_fast[m][:, idx].mean())
-            per = np.array([h[m][:, idx].mean() for h in h_refs])
-            med = float(np.median(per))
-            out.append(RegionDeviation(name, g, int(m.sum()), f, float(per.mean()),
-                                       float(per.std(ddof=1) / math.sqrt(n)),
-                                       float(per.max() / med) if med > 0 else float("nan"),
-                                       batch_se([[h[m][:, idx].mean() for h in g] for g in h_bats])))
+            est.append((name, g, int(m.sum()), float(h_fast[m][:, idx].mean()),
+                        batch_se([[h[m][:, idx].mean() for h in g] for g in h_bats])))
+            where.append((m, idx))
     if nb >= 2:  # each region's noise from `dof` degrees of freedom, moderated over the case's regions
-        rel = np.array([r.fast_se / r.fast if r.fast > 0 else np.nan for r in out])
+        rel = np.array([e[4] / e[3] if e[3] > 0 else np.nan for e in est])
         mod = moderated_relative_se(rel, dof)
-        out = [dataclasses.replace(r, fast_se=float(mod[i] * r.fast)) if np.isfinite(mod[i]) and r.fast > 0 else r
-               for i, r in enumerate(out)]
+        est = [(*e[:4], float(mod[i] * e[3])) if np.isfinite(mod[i]) and e[3] > 0 else e for i, e in enumerate(est)]
     masks = target_masks(oid, fast.meta.get("object_ids", {}), target_kind)
 
     def radiance_metrics(si) -> dict:
@@ -484,7 +512,6 @@ def compare_renders(fast, references: list, target_kind: str, *, fast_batches: l
         return m
 
     mf = radiance_metrics(fast)
-    mref, ref_se = pooled_metric(references, radiance_metrics)
     fast_se: dict = {}  # each metric's: the renders' jackknife variances of their batches, pooled
     per_render, weights = [], []
     for g in batch_sets:
@@ -495,16 +522,43 @@ def compare_renders(fast, references: list, target_kind: str, *, fast_batches: l
     for key in set().union(*per_render) if per_render else ():
         v = np.array([x.get(key, np.nan) for x in per_render], float)
         fast_se[key] = float(math.sqrt(np.average(v ** 2, weights=weights))) if np.all(np.isfinite(v)) else float("nan")
+    metrics = {k: (float(v), float(fast_se.get(k, 0.0)) if np.isfinite(fast_se.get(k, 0.0)) else 0.0)
+               for k, v in mf.items()}
+    return FastEstimates(est, where, metrics, radiance_metrics)
+
+
+def _metric_deviations(est: FastEstimates, mref: dict, ref_se: dict) -> list[MetricDeviation]:
+    """The scene metrics of a check: the fast image's (``est``) against the reference's values and SEs."""
     metrics: list[MetricDeviation] = []
     for key in ("contrast_radiance", "backscatter_share", "speck_share"):
         # (a contrast below MIN_CONTRAST is kept here, for chart_beyond_visibility; the study's table leaves it out)
         if key == "speck_share" and not mref.get(key):
             continue
-        if key in mf and np.isfinite(mref.get(key, np.nan)):
-            f_se = fast_se.get(key, 0.0)
-            metrics.append(MetricDeviation(key, float(mf[key]), float(mref[key]), float(ref_se[key]),
-                                           float(f_se) if np.isfinite(f_se) else 0.0))
-    return out, metrics
+        if key in est.metrics and np.isfinite(mref.get(key, np.nan)):
+            f, f_se = est.metrics[key]
+            metrics.append(MetricDeviation(key, f, float(mref[key]), float(ref_se[key]), f_se))
+    return metrics
+
+
+def compare_to_cells(fast, cells: list[dict], target_kind: str, *, fast_batches: list | None = None,
+                     noise_batches: list | None = None) -> tuple[list[RegionDeviation], list[MetricDeviation]]:
+    """A fast image against the reference a published row kept (:func:`read_cells`: one case's cells, the
+    reference's mean ``monte_carlo``, its ``monte_carlo_se`` and ``monte_carlo_tail`` per region × colour group
+    and per metric): :func:`compare_renders` without the renders, for judging a changed fast engine against the
+    references a row was measured with.  Raises ValueError where the fast image's regions are not the cells'
+    (another scene, size or region layout: those references do not apply)."""
+    est = fast_estimates(fast, target_kind, fast_batches=fast_batches, noise_batches=noise_batches)
+    ref = {(c["region"], c["group"]): c for c in cells if c["quantity"] == "radiance"}
+    if len(ref) != len(est.regions) or any(ref.get((name, g), {}).get("pixels") not in (str(px), px)
+                                           for name, g, px, _, _ in est.regions):
+        raise ValueError("the fast image's regions are not the kept cells' (another scene, size or layout)")
+    out = [RegionDeviation(name, g, px, f, float(ref[name, g]["monte_carlo"]), float(ref[name, g]["monte_carlo_se"]),
+                           float(ref[name, g]["monte_carlo_tail"] or "nan"), f_se)
+           for name, g, px, f, f_se in est.regions]
+    kept = {c["quantity"]: c for c in cells if c["quantity"] != "radiance"}
+    mref = {k: float(c["monte_carlo"]) for k, c in kept.items()}
+    ref_se = {k: float(c["monte_carlo_se"]) for k, c in kept.items()}
+    return out, _metric_deviations(est, mref, ref_se)
 
 
 # ---------------------------------------------------------------------------- the published table
@@ -664,6 +718,19 @@ def write_cells(path, rows: list[dict], *, header: str = "") -> None:
     for r in rows:
         wr.writerow({c: _cell_text(r.get(c, "" if c != "lighting" else "strobes")) for c in CELL_COLUMNS})
     atomic_write_bytes(path, gzip.compress(buf.getvalue().encode(), mtime=0))
+
+
+def read_cells_header(path) -> list[str]:
+    """The ``#`` lines heading a cells file (:func:`write_cells`), without the ``# ``."""
+    import gzip
+
+    out = []
+    with gzip.open(path, "rt") as fh:
+        for line in fh:
+            if not line.startswith("#"):
+                break
+            out.append(line[1:].strip())
+    return out
 
 
 def read_cells(path) -> list[dict]:

@@ -17,7 +17,7 @@ from rigsim.study.spec import Case, StudySpec, sensor_key
 
 log = logging.getLogger(__name__)
 
-__all__ = ["compute_case", "compute_check", "case_scene", "case_engine", "STUDY_LAYERS"]
+__all__ = ["compute_case", "compute_check", "fast_check_images", "case_scene", "case_engine", "STUDY_LAYERS"]
 
 
 def case_scene(spec: StudySpec, case: Case):
@@ -186,6 +186,35 @@ def _dng_bytes(cap) -> bytes:
         return save_dng(cap, Path(d) / "raw.dng").read_bytes()
 
 
+def fast_check_images(spec: StudySpec, case: Case, scene=None, water=None) -> tuple:
+    """The fast engine's side of a case's check: its image at the check's size (the case's seed), the same
+    image with each batch of its multiple-scattering photons, and those batches of ``fast_noise_seeds``
+    further renders with other seeds (for the noise estimate alone: :class:`~rigsim.study.spec.CheckSettings`).
+    Returns ``(fast, fast_batches, noise_batches)``; ``scene``, ``water``: the case's, where already built."""
+    from rigsim.preview import render_photon_batches, render_preview
+
+    if scene is None:
+        scene, water, _ = case_scene(spec, case)
+    ck, wl = spec.check, spec.render.wavelengths_nm
+    seed = spec.case_seed(case)
+    layers = study_layers(water)
+    traced: dict = {}
+    fast = render_preview(scene, width=ck.width, height=ck.height, wavelengths_nm=wl, layers=layers,
+                          multiple=spec.render.preview_multiple, seed=seed, traced_out=traced)
+    # the fast engine's own noise: the same image with each batch of its multiple-scattering photons
+    fast_batches = render_photon_batches(scene, traced, traced_size=(ck.width, ck.height), width=ck.width,
+                                         height=ck.height, wavelengths_nm=wl, layers=layers)
+    # ... and of further renders with other seeds, for that noise estimate alone (CheckSettings.fast_noise_seeds)
+    noise_batches = []
+    for j in range(1, ck.fast_noise_seeds + 1 if fast_batches else 1):
+        tr: dict = {}
+        render_preview(scene, width=ck.width, height=ck.height, wavelengths_nm=wl, layers=layers,
+                       multiple=spec.render.preview_multiple, seed=(seed + 104_729 * j) % 2**32, traced_out=tr)
+        noise_batches.append(render_photon_batches(scene, tr, traced_size=(ck.width, ck.height), width=ck.width,
+                                                   height=ck.height, wavelengths_nm=wl, layers=layers))
+    return fast, fast_batches, noise_batches
+
+
 def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
     """The Monte Carlo check of one case: the fast engine and ``spec.check.seeds`` independent
     Monte Carlo renders at the check size (more, up to ``max_seeds``, where the first ones are too
@@ -204,7 +233,6 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
     import time
 
     from rigsim.metrics.agreement import chart_beyond_visibility, compare_renders, relative_se, tolerance_for
-    from rigsim.preview import render_photon_batches, render_preview
     from rigsim.render import render
 
     scene, water, target_kind = case_scene(spec, case)
@@ -212,20 +240,7 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
     seed = spec.case_seed(case)
     t0 = time.perf_counter()
     layers = study_layers(water)
-    traced: dict = {}
-    fast = render_preview(scene, width=ck.width, height=ck.height, wavelengths_nm=wl, layers=layers,
-                          multiple=spec.render.preview_multiple, seed=seed, traced_out=traced)
-    # the fast engine's own noise: the same image with each batch of its multiple-scattering photons
-    fast_batches = render_photon_batches(scene, traced, traced_size=(ck.width, ck.height), width=ck.width,
-                                         height=ck.height, wavelengths_nm=wl, layers=layers)
-    # ... and of further renders with other seeds, for that noise estimate alone (CheckSettings.fast_noise_seeds)
-    noise_batches = []
-    for j in range(1, ck.fast_noise_seeds + 1 if fast_batches else 1):
-        tr: dict = {}
-        render_preview(scene, width=ck.width, height=ck.height, wavelengths_nm=wl, layers=layers,
-                       multiple=spec.render.preview_multiple, seed=(seed + 104_729 * j) % 2**32, traced_out=tr)
-        noise_batches.append(render_photon_batches(scene, tr, traced_size=(ck.width, ck.height), width=ck.width,
-                                                   height=ck.height, wavelengths_nm=wl, layers=layers))
+    fast, fast_batches, noise_batches = fast_check_images(spec, case, scene, water)
     t_fast = time.perf_counter() - t0
     t0 = time.perf_counter()
 

@@ -287,7 +287,8 @@ def agreement_rows(checks: list[dict]) -> list[dict]:
     """One row per checked case × region (or metric) × colour group, for agreement.csv: the chart patches (and
     contrast) of a case beyond the chart's visibility (:func:`rigsim.metrics.agreement.chart_beyond_visibility`) with the verdict
     ``beyond visibility``; a contrast below :data:`~rigsim.metrics.agreement.MIN_CONTRAST` in Monte Carlo left
-    out (its relative difference says nothing)."""
+    out (its relative difference says nothing).  A record's own ``beyond_visibility`` (True / False), where it
+    has one, says so instead (a re-judge against kept cells, whose contrast below that limit was left out)."""
     from rigsim.metrics.agreement import BEYOND_VISIBILITY, MIN_CONTRAST, chart_beyond_visibility, verdict
 
     rows = []
@@ -295,7 +296,8 @@ def agreement_rows(checks: list[dict]) -> list[dict]:
         base = {k: rec.get(k) for k in ("rig", "water", "target", "distance_m", "c_550_per_m", "tolerance", "width",
                                         "height", "spp", "seeds")}
         base["reference"] = rec.get("reference", "monte-carlo")
-        unseen = chart_beyond_visibility(rec.get("target"), rec["metrics"], rec.get("seeds"))
+        unseen = (bool(rec["beyond_visibility"]) if rec.get("beyond_visibility") is not None else
+                  chart_beyond_visibility(rec.get("target"), rec["metrics"], rec.get("seeds")))
         for r in rec["regions"]:
             rows.append({**base, "quantity": "radiance", "region": r["region"], "group": r["group"],
                          "pixels": r["pixels"], "fast": r["fast"], "monte_carlo": r["reference"],

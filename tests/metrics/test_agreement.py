@@ -584,3 +584,59 @@ def test_every_published_cells_file_is_the_row_it_stands_beside():
         assert sum(judged(r) for r in radiance) == int(row["cells"]), f.name
         assert sum(r["verdict"] == "disagrees" for r in rs) == int(row["beyond"]), f.name
         assert {r["rig"] for r in got} == {row["rig"]} and {r["water"] for r in got} == {row["water"]}, f.name
+
+
+def test_a_fast_image_judged_against_kept_cells_reads_as_against_the_renders_they_came_from(tmp_path):
+    """``compare_to_cells``: the cells a row keeps (``agreement_rows`` of a check, through ``write_cells`` /
+    ``read_cells``, 6 significant digits) stand for the Monte Carlo renders they summarise — a changed fast
+    image (another level, other photon batches) gets the deviations, standard errors and verdict inputs that
+    ``compare_renders`` gives it against those renders, region by region and for the metrics; a fast image whose
+    regions are not the cells' is refused."""
+    from rigsim.metrics.agreement import compare_renders, compare_to_cells, read_cells, write_cells
+    from rigsim.spectral_image import SpectralImage
+    from rigsim.study.runner import agreement_rows
+
+    wl = np.array([450.0, 550.0, 650.0])
+    rows, cols = 30, 40
+    y, x = np.mgrid[0:rows, 0:cols]
+    oid = (((y - 15) ** 2 + (x - 20) ** 2) <= 25).astype(np.int32)
+    truth = np.where(oid == 1, 0.6, 1.0)[..., None] * np.array([0.8, 1.0, 1.2])
+    rng = np.random.default_rng(11)
+
+    def img(a, o=oid):
+        return SpectralImage(radiance=a.astype(np.float32), wavelength_nm=wl, bandwidth_nm=np.full(3, 100.0),
+                             layers={"object_id": o}, meta={"object_ids": {"1": "disk"}})
+
+    def batches(level):
+        return [img(level * truth * (1 + 0.2 * rng.standard_normal((rows, cols, 1)))) for _ in range(4)]
+
+    refs = [img(truth * (1 + 0.3 * rng.standard_normal((rows, cols, 1)))) for _ in range(6)]
+    own = batches(1.0)
+    fast = img(np.mean([np.asarray(b.radiance) for b in own], axis=0))
+    regions, metrics = compare_renders(fast, refs, "black-disk", fast_batches=own, noise_batches=[batches(1.0)])
+    rec = {"rig": "wide", "water": "jerlov-9C", "target": "black-disk", "distance_m": 1.0, "tolerance": 0.05,
+           "width": cols, "height": rows, "spp": 32, "seeds": len(refs), "reference": "monte-carlo",
+           "regions": [r.record() for r in regions], "metrics": [m.record() for m in metrics]}
+    write_cells(tmp_path / "row.csv.gz", agreement_rows([rec]))
+    kept = read_cells(tmp_path / "row.csv.gz")
+    # the engine changed: its image 4 % higher, other photons
+    own2 = batches(1.04)
+    fast2 = img(np.mean([np.asarray(b.radiance) for b in own2], axis=0))
+    extra2 = [batches(1.04)]
+    want_r, want_m = compare_renders(fast2, refs, "black-disk", fast_batches=own2, noise_batches=extra2)
+    got_r, got_m = compare_to_cells(fast2, kept, "black-disk", fast_batches=own2, noise_batches=extra2)
+    assert [(r.region, r.group) for r in got_r] == [(r.region, r.group) for r in want_r] and len(got_r) == 6
+    for g, w in zip(got_r, want_r):
+        assert g.deviation == pytest.approx(w.deviation, rel=1e-5, abs=1e-5)
+        assert g.deviation_se == pytest.approx(w.deviation_se, rel=1e-5)
+        assert g.reference_tail == pytest.approx(w.reference_tail, rel=1e-5)
+        assert g.fast == w.fast and g.fast_se == w.fast_se
+    assert [m.metric for m in got_m] == [m.metric for m in want_m] and got_m[0].metric == "contrast_radiance"
+    for g, w in zip(got_m, want_m):  # (a value kept to 6 digits: the deviation to ~1e-5 of the reference)
+        assert g.deviation == pytest.approx(w.deviation, rel=1e-5, abs=1e-5)
+        assert g.deviation_se == pytest.approx(w.deviation_se, rel=1e-5)
+    assert abs(got_r[0].deviation - regions[0].deviation) > 0.02  # the change shows
+    moved = np.where(oid == 1, 0, 1).astype(np.int32)  # another scene's regions: the kept cells do not apply
+    moved[:3] = 1
+    with pytest.raises(ValueError, match="not the kept cells'"):
+        compare_to_cells(img(np.asarray(fast2.radiance), moved), kept, "black-disk")
