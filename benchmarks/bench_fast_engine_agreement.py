@@ -168,6 +168,8 @@ CHECK_ONLY_COMMITS: dict[str, str] = {
     "65cfdf0": "the hybrid reference's renders per image chosen from its pilot (the reference, not the fast engine)",
     "67fa609": "tidying of the hybrid check's code (same behaviour)",
     "5fadf90": "each published row's cells written beside the table (the writer of the table, not the engine)",
+    "026c64c": "the check's fast side and comparison split for --rejudge (same images and numbers: a re-judge of an "
+               "unchanged row reproduced its fast values to 0.00 %)",
 }
 
 
