@@ -35,7 +35,8 @@ checks a changed fast engine against the same references without rendering them 
 drew are not reused: :func:`rigsim.render.integrators.integrator_key`).
 
 ``--publish`` writes the per-water, per-rig summary to ``data/fast_engine/agreement.csv`` (what the rig designer and
-``--status`` read) and each row's every cell to ``data/fast_engine/cells/<lighting>__<water>__<rig>__<distances>.csv.gz``
+``--status`` read) and each row's every cell to
+``data/fast_engine/cells/<lighting>__<water>__<rig>__<distances>.csv.gz``
 (fast and reference values, each one's standard error, the reference's tail, the verdict; headed by the settings and
 the command): the table's numbers with what they came from, for reading cell by cell and for judging a later change of
 the fast engine against the same references.  Rows published before 2026-12-07 have cells only where their run was
@@ -294,7 +295,8 @@ def main(argv=None) -> int:
                          "an earlier one) and the rows to make again; renders nothing")
     ap.add_argument("--rejudge", action="store_true",
                     help=f"judge this checkout's fast engine against the references the published rows kept "
-                         f"({CELLS.relative_to(ROOT)}; --waters / --rigs select rows when given): the fast images alone, "
+                         f"({CELLS.relative_to(ROOT)}; --waters / --rigs select rows when given): the fast images "
+                         "alone, "
                          "no Monte Carlo (minutes per row); with --publish those rows are re-made")
     ap.add_argument("--publish", action="store_true",
                     help=f"write the per-water summary to {PUBLISHED.relative_to(ROOT)} (the rig designer shows it)")
@@ -302,7 +304,10 @@ def main(argv=None) -> int:
     if args.status:
         return print_status()
     if args.rejudge:
-        picked = lambda name: set(_list(getattr(args, name))) if getattr(args, name) != ap.get_default(name) else None  # noqa: E731
+        def picked(name: str) -> set | None:  # the rows asked for: all unless the option was given
+            value = getattr(args, name)
+            return set(_list(value)) if value != ap.get_default(name) else None
+
         return rejudge(waters=picked("waters"), rigs=picked("rigs"), publish=args.publish,
                        command="python benchmarks/bench_fast_engine_agreement.py " + " ".join(
                            shlex.quote(a) for a in (sys.argv[1:] if argv is None else argv)))
@@ -417,8 +422,8 @@ def rejudge(*, waters: set | None, rigs: set | None, publish: bool, command: str
     with ``publish`` re-makes the rows (their settings say against which references)."""
     import tempfile
 
-    from rigsim.metrics.agreement import (BEYOND_VISIBILITY, MIN_CONTRAST, compare_to_cells, noise_multiplier,
-                                         read_cells, read_cells_header, tolerance_for, write_published)
+    from rigsim.metrics.agreement import (MIN_CONTRAST, compare_to_cells, noise_multiplier, read_cells,
+                                         read_cells_header, tolerance_for, write_published)
     from rigsim.study import load_study
     from rigsim.study.case import case_scene, fast_check_images
     from rigsim.study.runner import agreement_rows
@@ -487,7 +492,7 @@ def rejudge(*, waters: set | None, rigs: set | None, publish: bool, command: str
             print(f"[{k}/{len(picked)}] {f.name}: {n_done} of {n_kept} cases in {time.perf_counter() - t0:.0f} s",
                   flush=True)
             if n_done != n_kept:
-                print(f"  not all of its cases are in the study its settings make: not re-made", file=sys.stderr)
+                print("  not all of its cases are in the study its settings make: not re-made", file=sys.stderr)
                 continue
             out_rows += rows
             published.append((rows, light, water, rig, head, settings))

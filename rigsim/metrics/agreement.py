@@ -64,12 +64,12 @@ from rigsim.spectral_image import SPECTRAL_LAYERS
 from rigsim.spectrum import colour_groups
 
 __all__ = ["RegionDeviation", "MetricDeviation", "CLEAR_WATERS", "MIN_CONTRAST", "PublishedAgreement",
-           "published_agreement", "write_published", "write_cells", "read_cells", "read_cells_header", "cells_file_name", "CELL_COLUMNS",
-           "PUBLISHED_TABLE", "tolerance_for", "comparison_regions",
-           "compare_renders", "compare_to_cells", "fast_estimates", "FastEstimates", "moderated_relative_se", "MIN_MODERATED", "verdict", "noise_multiplier", "relative_se",
-           "HEAVY_TAIL", "heavy_tailed",
-           "case_key", "target_tails", "mean_image", "pooled_metric", "BEYOND_VISIBILITY", "chart_beyond_visibility",
-           "judged", "pooled_patches"]
+           "published_agreement", "write_published", "write_cells", "read_cells", "read_cells_header",
+           "cells_file_name", "CELL_COLUMNS", "PUBLISHED_TABLE", "tolerance_for", "comparison_regions",
+           "compare_renders", "compare_to_cells", "fast_estimates", "FastEstimates", "moderated_relative_se",
+           "MIN_MODERATED", "verdict", "noise_multiplier", "relative_se", "HEAVY_TAIL", "heavy_tailed", "case_key",
+           "target_tails", "mean_image", "pooled_metric", "BEYOND_VISIBILITY", "chart_beyond_visibility", "judged",
+           "pooled_patches"]
 
 #: Waters in which the fast engine should agree within 3 % (Jerlov's oceanic types I–III and the
 #: original write-up's clear waters); elsewhere 5 %.
