@@ -171,6 +171,7 @@ CHECK_ONLY_COMMITS: dict[str, str] = {
     "5fadf90": "each published row's cells written beside the table (the writer of the table, not the engine)",
     "026c64c": "the check's fast side and comparison split for --rejudge (same images and numbers: a re-judge of an "
                "unchanged row reproduced its fast values to 0.00 %)",
+    "67724fa": "tidying (__all__ reflowed; same behaviour)",
 }
 
 
