@@ -464,12 +464,12 @@ def rejudge(*, waters: set | None, rigs: set | None, publish: bool, command: str
                 by_case[(c["target"], float(c["distance_m"]))].append(c)
             rows = []
             for case in spec.check_cases():
-                _, _, target_kind = case_scene(spec, case)
+                scene, case_water, target_kind = case_scene(spec, case)
                 target = target_kind if target_kind != "mesh" else case.target
                 kept = by_case.get((target, float(case.distance_m)))
                 if not kept:
                     continue
-                fast, fb, nb = fast_check_images(spec, case)
+                fast, fb, nb = fast_check_images(spec, case, scene, case_water)
                 regions, metrics = compare_to_cells(fast, kept, target_kind, fast_batches=fb, noise_batches=nb)
                 seeds = int(kept[0]["seeds"])
                 unseen = None
