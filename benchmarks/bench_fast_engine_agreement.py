@@ -423,8 +423,8 @@ def rejudge(*, waters: set | None, rigs: set | None, publish: bool, command: str
     with ``publish`` re-makes the rows (their settings say against which references)."""
     import tempfile
 
-    from rigsim.metrics.agreement import (MIN_CONTRAST, compare_to_cells, noise_multiplier, read_cells,
-                                         read_cells_header, tolerance_for, write_published)
+    from rigsim.metrics.agreement import (compare_to_cells, contrast_below_visibility, read_cells, read_cells_header,
+                                         tolerance_for, write_published)
     from rigsim.study import load_study
     from rigsim.study.case import case_scene, fast_check_images
     from rigsim.study.runner import agreement_rows
@@ -476,10 +476,9 @@ def rejudge(*, waters: set | None, rigs: set | None, publish: bool, command: str
                 if target == "colorchecker":
                     m = next((x for x in metrics if x.metric == "contrast_radiance"), None)
                     ref_c = next((c for c in kept if c["quantity"] == "contrast_radiance"), None)
-                    fast_below = (m.fast + 2.0 * m.fast_se < MIN_CONTRAST) if m is not None else False
-                    ref_below = (ref_c is None or float(ref_c["monte_carlo"]) - noise_multiplier(seeds) *
-                                 float(ref_c["monte_carlo_se"] or 0.0) < MIN_CONTRAST)
-                    unseen = fast_below and ref_below
+                    unseen = m is not None and contrast_below_visibility(
+                        m.fast, m.fast_se, None if ref_c is None else float(ref_c["monte_carlo"]),
+                        float(ref_c["monte_carlo_se"] or "nan") if ref_c is not None else 0.0, seeds)
                 rec = {"rig": rig, "water": water, "target": target, "distance_m": case.distance_m,
                        "c_550_per_m": first.get("c_550_per_m"), "tolerance": tolerance_for(water),
                        "width": first["width"], "height": first["height"], "spp": first["spp"], "seeds": seeds,

@@ -68,7 +68,8 @@ __all__ = ["RegionDeviation", "MetricDeviation", "CLEAR_WATERS", "MIN_CONTRAST",
            "cells_file_name", "CELL_COLUMNS", "PUBLISHED_TABLE", "tolerance_for", "comparison_regions",
            "compare_renders", "compare_to_cells", "fast_estimates", "FastEstimates", "moderated_relative_se",
            "MIN_MODERATED", "verdict", "noise_multiplier", "relative_se", "HEAVY_TAIL", "heavy_tailed", "case_key",
-           "target_tails", "mean_image", "pooled_metric", "BEYOND_VISIBILITY", "chart_beyond_visibility", "judged",
+           "target_tails", "mean_image", "pooled_metric", "BEYOND_VISIBILITY", "chart_beyond_visibility",
+           "contrast_below_visibility", "judged",
            "pooled_patches"]
 
 #: Waters in which the fast engine should agree within 3 % (Jerlov's oceanic types I–III and the
@@ -213,8 +214,17 @@ def chart_beyond_visibility(target: str, metrics: list[dict], seeds: int | None)
         return False
     if not all(math.isfinite(x) for x in (fast, ref)):
         return False
-    ref_se = ref_se if math.isfinite(ref_se) else 0.0
+    return contrast_below_visibility(fast, fast_se, ref, ref_se, seeds)
+
+
+def contrast_below_visibility(fast: float, fast_se: float, ref: float | None, ref_se: float, seeds: int | None) -> bool:
+    """The rule of :func:`chart_beyond_visibility` on the numbers: the fast contrast below :data:`MIN_CONTRAST` by two
+    of its standard errors and the reference's within its 95 % interval; ``ref`` None: a reference contrast that a
+    published row left out for being below the limit (:func:`rigsim.study.runner.agreement_rows`)."""
     fast_se = fast_se if math.isfinite(fast_se) else 0.0
+    if ref is None:
+        return fast + 2.0 * fast_se < MIN_CONTRAST
+    ref_se = ref_se if math.isfinite(ref_se) else 0.0
     return fast + 2.0 * fast_se < MIN_CONTRAST and ref - noise_multiplier(seeds) * ref_se < MIN_CONTRAST
 
 
