@@ -172,6 +172,7 @@ CHECK_ONLY_COMMITS: dict[str, str] = {
     "026c64c": "the check's fast side and comparison split for --rejudge (same images and numbers: a re-judge of an "
                "unchanged row reproduced its fast values to 0.00 %)",
     "67724fa": "tidying (__all__ reflowed; same behaviour)",
+    "1c7e58f": "the visibility rule factored out (same behaviour)",
 }
 
 
