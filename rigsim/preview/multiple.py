@@ -42,7 +42,16 @@ densities the path would have had with every other hero, so no band's weight is 
   over its plane (:data:`TARGET_KERNEL_M`, a kernel on the target as :data:`KERNEL_M` is one in the
   water): a patch's own cells hold a twenty-fifth of the chart's photons, and in Jerlov 3C at 1 m their
   noise had put a patch 9 % below Monte Carlo (light skin, −9.3 ± 2.1 %; over 16 seeds of the fast engine
-  −4.6 ± 1.9 %).
+  −4.6 ± 1.9 %).  Every scattering vertex also sends a flight to a point on the targets (class-B connections
+  only), combined with the hits by the balance heuristic (:class:`_SurfaceNEE`): a chart far off in clear water
+  is met by few photons after a wide-angle scattering, and its patches' light carried their noise.  Measured
+  2026-12-07 (96×64, seeds of 98 304 photons, flights against hits alone): edge-lit chart at 6 m in Jerlov II,
+  the white patch's spread between 6 seeds 2.0 / 2.1 / 1.1 → 0.9 / 0.7 / 0.4 % (blue / green / red), the chart's
+  mean over 12 seeds −0.01 %; at 6 m in coastal water with marine snow (the demo's one cell beyond tolerance;
+  10 seeds) the blue flower's blue 2.3 → 1.3 %, the chart's mean −0.27 %; in Jerlov 9C at 1 m and 5C at 3 m (the veil in front of a patch holds most of its noise)
+  the median spread 1.42 → 1.45 and 1.50 → 1.65 %, the chart's mean +0.19 ± 0.3 and −0.15 ± 0.4 % (40 and 24
+  seeds); the engine's time +10–15 % at 640×427 where it traces.  Over the 16 agreement rows that keep their
+  cells the fast engine's own noise fell from 0.5 / 1.1 % (median / 90th percentile of a cell) to 0.3 / 0.8 %.
 * **Path classes** — a path is class A (left to the analytic model) while it has no scattering by
   more than ψ_c and no surface: its surface hit, and its vertices whose scattering towards the
   camera is by more than ψ_c, are not counted; every other vertex and surface hit is.  Every path
@@ -828,10 +837,11 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
         the side of each target the camera sees, exact (no δ-truncation), nothing splatted — the light
         leg of the hybrid reference (``benchmarks/bench_reference_hybrid.py``).
     surface_nee
-        ``classes="irradiance"`` only: each light's emission point and every scattering vertex also sends
-        a flight to a point drawn uniformly over the targets' sides the camera sees, combined with the
-        photons' own hits by the balance heuristic (:func:`_SurfaceNEE`); False: the hits alone.  Not
-        with meshes (the hits alone, whatever this says).
+        ``classes="irradiance"`` and ``"B"``: every scattering vertex (with ``"irradiance"`` each light's
+        emission point too; class B: only the flights that make the path class B) also sends a flight to a
+        point drawn uniformly over the targets' sides the camera sees, combined with the photons' own hits
+        by the balance heuristic (:func:`_SurfaceNEE`); False: the hits alone.  Not with meshes (the hits
+        alone, whatever this says).
     """
     if classes not in ("B", "all", "A", "qss", "irradiance"):
         raise ValueError("classes must be 'B', 'A', 'qss', 'all' or 'irradiance'")
@@ -878,7 +888,8 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
     refl = np.stack([_at_nodes(r, wl_bands, wavelength_nm) for r in surf.reflectance(wl_bands)])  # (S+1, B)
     cell_area = _cell_areas(surf) if S else np.zeros(0)
     dens_b = tables.densities.T @ weights.T  # (cells, B): each node's phase function per cell (1/sr)
-    nee = _SurfaceNEE(surf, pupil) if irradiance_only and surface_nee and S and surf.meshes is None else None
+    nee = (_SurfaceNEE(surf, pupil) if (irradiance_only or classes == "B") and surface_nee and S and surf.meshes is None
+           else None)
 
     power = []
     _, bw = band_edges(wl_bands, bandwidth_nm)
@@ -929,7 +940,8 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
         # the light's own flight to the targets: drawn over their area (the photons' first flights' hits
         # count nothing, below); then per photon its last event (0 light, 1 water, 2 surface), where it
         # was and the hit technique's density factor P_j p_j(ψ) of its last scattering
-        nee.from_lights(irr, lights, li, bid, pos, F, c, cell_area, rng)
+        if irradiance_only:  # (class B: the lights' direct light is the analytic model's)
+            nee.from_lights(irr, lights, li, bid, pos, F, c, cell_area, rng)
         last = np.zeros(n, np.int8)
         x_prev = pos.copy()
         pph = np.ones((n, B))
@@ -1014,7 +1026,10 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
                                       bid[mv], li[mv], surf, pupil, reach, near_m, edges, cutoff_cos, dens_b, tables,
                                       cells, turns, hero[mv], P[mv])
             if nee is not None:
-                nee.from_water(irr, x, d[mv], F[mv], P[mv], bid[mv], li[mv], c, dens_b, tables, cell_area, rng)
+                # class B: only connections that make the path class B (after a significant event, or a turn
+                # towards the target by more than ψ_c; with the δ-truncation the phase function is 0 within it)
+                nee.from_water(irr, x, d_end[mv], F[mv], P[mv], bid[mv], li[mv], c, dens_b, tables, cell_area, rng,
+                               after=None if irradiance_only else (n_sig[mv], cutoff_cos))
             # scatter
             cos_new = _sample_phase(tables, weights, hero[mv], rng)
             ph_new = np.take(dens_b, tables.grid.cell_index(cos_new), axis=0)
@@ -1176,8 +1191,8 @@ def _smooth_on_targets(irr: np.ndarray, surf: SceneSurfaces, cell_area: np.ndarr
 
 
 class _SurfaceNEE:
-    """Next-event estimation of the targets' irradiance (``classes="irradiance"``), combined with the photons'
-    own hits by the balance heuristic (Veach & Guibas 1995).
+    """Next-event estimation of the targets' irradiance (``classes="irradiance"``, and class B's from its
+    scattering vertices), combined with the photons' own hits by the balance heuristic (Veach & Guibas 1995).
 
     The hits alone are unbiased, but a chart patch is met by few photons.  Here every scattering vertex ``x``
     (and each light's emission point) also sends a flight to a point ``y`` drawn uniformly over the targets'
@@ -1256,10 +1271,16 @@ class _SurfaceNEE:
             val = F[i[m]] * np.exp(-np.outer(d[m], c)) * (f * cos_y[m] / d[m] ** 2 * self.area_m2)[:, None]
             self._deposit(irr, bid[i[m]], li[i[m]], k[m], y[m], val, cell_area)
 
-    def from_water(self, irr, x, d_in, F, P, bid, li, c, dens_b, tables, cell_area, rng) -> None:
+    def from_water(self, irr, x, d_in, F, P, bid, li, c, dens_b, tables, cell_area, rng, after=None) -> None:
         """Scattering vertices ``x`` (photons arriving along ``d_in`` with weights ``F``, hero densities ``P``)
-        send one flight each, weighted by the balance heuristic against the hits."""
+        send one flight each, weighted by the balance heuristic against the hits.  ``after``: ``(n_sig,
+        cutoff_cos)`` to count only the flights whose path is class B at the target (a significant event before
+        ``x``, or the turn at ``x`` by more than ψ_c); None: every flight."""
         i, k, y, d, w, cos_y = self._connect(x, rng)
+        if after is not None and i.size:
+            n_sig, cutoff_cos = after
+            keep = (n_sig[i] >= 1) | (_dot(d_in[i], w) < cutoff_cos)
+            i, k, y, d, w, cos_y = i[keep], k[keep], y[keep], d[keep], w[keep], cos_y[keep]
         if not i.size:
             return
         ph = np.take(dens_b, tables.grid.cell_index(_dot(d_in[i], w)), axis=0)
