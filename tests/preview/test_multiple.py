@@ -490,16 +490,19 @@ def test_a_flat_targets_texture_holds_the_light_on_the_side_the_camera_sees():
     assert flux[1] > 0 and flux[0] < 0.1 * flux[1], flux
 
 
-def _flux_batches(sc, *, photons, seed, surface_nee):
-    """(8, S, 3) flux on each surface (W/nm at :data:`WL`) of 8 batches of ``classes="irradiance"``."""
+def _flux_batches(sc, *, photons, seed, surface_nee, classes="irradiance"):
+    """(8, S, 3) flux on each surface (W/nm at :data:`WL`) of 8 batches of ``classes="irradiance"`` (every path,
+    every band), or ``"B"`` (the fast engine's class B, as it runs it)."""
     from rigsim.preview.multiple import _cell_areas
 
     surf = scene_surfaces(sc)
     wl, kw = _tracer_inputs(sc)
     area = _cell_areas(surf)
     area = np.where(np.isfinite(area), area, 0.0)
-    ms = trace_multiple(sc, surf, list(sc.lights), wl, **{**kw, "kappa_cam": kw["c"]}, photons=photons, seed=seed,
-                        classes="irradiance", spectral_nodes=None, batches=8, surface_nee=surface_nee)
+    if classes == "irradiance":
+        kw = {**kw, "kappa_cam": kw["c"], "spectral_nodes": None}
+    ms = trace_multiple(sc, surf, list(sc.lights), wl, **kw, photons=photons, seed=seed, classes=classes, batches=8,
+                        surface_nee=surface_nee)
     return np.stack([(ms.batch(k).irradiance * area[..., None]).sum(axis=(1, 2)) for k in range(8)]), surf
 
 
@@ -692,19 +695,6 @@ def test_the_cone_turns_compose_as_the_poisson_process_of_small_angle_scattering
         assert np.all(np.abs(wt.mean(axis=0) - 1.0) < 4 * wt.std(axis=0) / np.sqrt(n)), wt.mean(axis=0)
 
 
-def _class_b_chart_flux(sc, *, photons, seed, surface_nee):
-    """(8, S, 3) class-B flux on each surface (W/nm at :data:`WL`) of 8 batches of the fast engine's tracer."""
-    from rigsim.preview.multiple import _cell_areas
-
-    surf = scene_surfaces(sc)
-    wl, kw = _tracer_inputs(sc)
-    area = _cell_areas(surf)
-    area = np.where(np.isfinite(area), area, 0.0)
-    ms = trace_multiple(sc, surf, list(sc.lights), wl, **kw, photons=photons, seed=seed, batches=8,
-                        surface_nee=surface_nee)
-    return np.stack([(ms.batch(k).irradiance * area[..., None]).sum(axis=(1, 2)) for k in range(8)]), surf
-
-
 def test_class_b_flights_to_the_targets_keep_the_irradiance_and_calm_a_far_chart():
     """Class B (the fast engine's tracer): the flights its scattering vertices send to the targets (class-B
     connections only: after a significant event, or turning by more than ψ_c), combined with the photons' hits
@@ -720,7 +710,7 @@ def test_class_b_flights_to_the_targets_keep_the_irradiance_and_calm_a_far_chart
         sc = build_scene(load_rig(f"rigs/{rig}.toml"), water, "colorchecker", distance)
         flux = {}
         for nee in (False, True):
-            flux[nee], surf = _class_b_chart_flux(sc, photons=photons, seed=5, surface_nee=nee)
+            flux[nee], surf = _flux_batches(sc, photons=photons, seed=5, surface_nee=nee, classes="B")
         whole = {k: v.sum(axis=1) for k, v in flux.items()}  # (8, B)
         z = (whole[True].mean(0) - whole[False].mean(0)) / np.hypot(*(whole[k].std(0, ddof=1) / np.sqrt(8) for k in whole))
         assert np.all(np.abs(z) < 4), (water, z)
