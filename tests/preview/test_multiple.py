@@ -506,6 +506,24 @@ def _flux_batches(sc, *, photons, seed, surface_nee, classes="irradiance"):
     return np.stack([(ms.batch(k).irradiance * area[..., None]).sum(axis=(1, 2)) for k in range(8)]), surf
 
 
+def _flights_against_hits(sc, *, photons, seed, classes="irradiance"):
+    """The targets' flux with the flights (``surface_nee``) and with the photons' hits alone, 8 batches each:
+    ``(z, ratio, flux, patches)`` — the difference of the whole targets' flux per band over its standard error,
+    the median over the chart's patches and bands of the hits' SE / the combined SE (None without 24 patches),
+    the combined estimate's (8, S, 3) flux and the chart's patch indices."""
+    flux = {}
+    for nee in (False, True):
+        flux[nee], surf = _flux_batches(sc, photons=photons, seed=seed, surface_nee=nee, classes=classes)
+    whole = {k: v.sum(axis=1) for k, v in flux.items()}  # (8, B)
+    z = (whole[True].mean(0) - whole[False].mean(0)) / np.hypot(*(whole[k].std(0, ddof=1) / np.sqrt(8) for k in whole))
+    patches = [k for k, lab in enumerate(surf.labels) if not lab.endswith(": chart")]
+    ratio = None
+    if len(patches) == 24:
+        se = {k: v.std(axis=0, ddof=1) / np.sqrt(8) for k, v in flux.items()}
+        ratio = float(np.median(se[False][patches] / se[True][patches]))
+    return z, ratio, flux[True], patches
+
+
 def test_the_targets_flights_and_the_photons_hits_estimate_the_same_irradiance_with_less_noise():
     """``classes="irradiance"``: the flights each scattering vertex and light sends to the targets, combined with
     the photons' hits by the balance heuristic (``surface_nee``, :class:`rigsim.preview.multiple._SurfaceNEE`),
@@ -522,19 +540,12 @@ def test_the_targets_flights_and_the_photons_hits_estimate_the_same_irradiance_w
             sc = build_scene(load_rig("rigs/twin-strobes-45-wide.toml"), water, target, distance)
         else:
             sc = _scene(water, target, distance)
-        flux = {}
-        for nee in (False, True):
-            flux[nee], surf = _flux_batches(sc, photons=photons, seed=11, surface_nee=nee)
-        whole = {k: v.sum(axis=1) for k, v in flux.items()}  # (8, B)
-        z = (whole[True].mean(0) - whole[False].mean(0)) / np.hypot(*(whole[k].std(0, ddof=1) / np.sqrt(8) for k in whole))
+        z, ratio, flux, patches = _flights_against_hits(sc, photons=photons, seed=11)
         assert np.all(np.abs(z) < 4), (water, z)
         if target == "colorchecker":
-            patches = [k for k, lab in enumerate(surf.labels) if not lab.endswith(": chart")]
             assert len(patches) == 24
-            se = {k: v.std(axis=0, ddof=1) / np.sqrt(8) for k, v in flux.items()}
-            ratio = float(np.median(se[False][patches] / se[True][patches]))
             assert ratio > 2, ratio
-            assert np.all(flux[True].mean(axis=0)[patches] > 0)
+            assert np.all(flux.mean(axis=0)[patches] > 0)
 
 
 def test_the_targets_smoothing_keeps_a_linear_field_and_lights_the_charts_body_from_its_patches():
@@ -708,15 +719,8 @@ def test_class_b_flights_to_the_targets_keep_the_irradiance_and_calm_a_far_chart
     cases = (("jerlov-II", "twin-strobes-edge-lighting", 6.0, 60_000), ("jerlov-9C", "twin-strobes-45-wide", 1.0, 40_000))
     for water, rig, distance, photons in cases:
         sc = build_scene(load_rig(f"rigs/{rig}.toml"), water, "colorchecker", distance)
-        flux = {}
-        for nee in (False, True):
-            flux[nee], surf = _flux_batches(sc, photons=photons, seed=5, surface_nee=nee, classes="B")
-        whole = {k: v.sum(axis=1) for k, v in flux.items()}  # (8, B)
-        z = (whole[True].mean(0) - whole[False].mean(0)) / np.hypot(*(whole[k].std(0, ddof=1) / np.sqrt(8) for k in whole))
+        z, ratio, _, patches = _flights_against_hits(sc, photons=photons, seed=5, classes="B")
         assert np.all(np.abs(z) < 4), (water, z)
+        assert len(patches) == 24
         if water == "jerlov-II":
-            patches = [k for k, lab in enumerate(surf.labels) if not lab.endswith(": chart")]
-            assert len(patches) == 24
-            se = {k: v.std(axis=0, ddof=1) / np.sqrt(8) for k, v in flux.items()}
-            ratio = float(np.median(se[False][patches] / se[True][patches]))
             assert ratio > 1.5, ratio
