@@ -47,10 +47,10 @@ densities the path would have had with every other hero, so no band's weight is 
   is met by few photons after a wide-angle scattering, and its patches' light carried their noise.  Measured
   2026-12-07 (96×64, seeds of 98 304 photons, flights against hits alone): edge-lit chart at 6 m in Jerlov II,
   the white patch's spread between 6 seeds 2.0 / 2.1 / 1.1 → 0.9 / 0.7 / 0.4 % (blue / green / red), the chart's
-  mean over 12 seeds −0.01 %; at 6 m in coastal water with marine snow (the demo's one cell beyond tolerance;
-  10 seeds) the blue flower's blue 2.3 → 1.3 %, the chart's mean −0.27 %; in Jerlov 9C at 1 m and 5C at 3 m (the veil in front of a patch holds most of its noise)
-  the median spread 1.42 → 1.45 and 1.50 → 1.65 %, the chart's mean +0.19 ± 0.3 and −0.15 ± 0.4 % (40 and 24
-  seeds); the engine's time +10–15 % at 640×427 where it traces.  Over the 16 agreement rows that keep their
+  mean over 12 seeds −0.01 %; at 6 m in coastal water with marine snow (the demo's cell that had been beyond
+  tolerance; 10 seeds) the blue flower's blue 2.3 → 1.3 %, the chart's mean −0.27 %; in Jerlov 9C at 1 m and 5C
+  at 3 m (the veil in front of a patch holds most of its noise) the median spread 1.42 → 1.45 and 1.50 → 1.65 %,
+  the chart's mean +0.19 ± 0.3 and −0.15 ± 0.4 % (40 and 24 seeds); the engine's time +10–15 % at 640×427 where it traces.  Over the 16 agreement rows that keep their
   cells the fast engine's own noise fell from 0.5 / 1.1 % (median / 90th percentile of a cell) to 0.3 / 0.8 %.
 * **Path classes** — a path is class A (left to the analytic model) while it has no scattering by
   more than ψ_c and no surface: its surface hit, and its vertices whose scattering towards the
@@ -1195,7 +1195,7 @@ class _SurfaceNEE:
     scattering vertices), combined with the photons' own hits by the balance heuristic (Veach & Guibas 1995).
 
     The hits alone are unbiased, but a chart patch is met by few photons.  Here every scattering vertex ``x``
-    (and each light's emission point) also sends a flight to a point ``y`` drawn uniformly over the targets'
+    (and, for ``classes="irradiance"``, each light's emission point) also sends a flight to a point ``y`` drawn uniformly over the targets'
     sides the camera sees (a surface ∝ its area; density ``1/A`` per unit area, ``A`` their total area); if
     ``y`` is unoccluded and on the seen side it carries ``F_λ p_λ(ψ) e^{−c_λ d} cos θ_y / d²`` (``F`` the
     photon's weight at ``x``, ``p`` the tracer's phase table at the connection's angle ψ, ``d = |y − x|``).
