@@ -173,6 +173,7 @@ CHECK_ONLY_COMMITS: dict[str, str] = {
                "unchanged row reproduced its fast values to 0.00 %)",
     "67724fa": "tidying (__all__ reflowed; same behaviour)",
     "1c7e58f": "the visibility rule factored out (same behaviour)",
+    "9da4a16": "docstrings of rigsim/preview/multiple.py only (same behaviour)",
 }
 
 
