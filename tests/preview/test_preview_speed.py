@@ -139,6 +139,22 @@ def test_threads_and_tiles_do_not_change_the_image(monkeypatch):
         np.testing.assert_allclose(c[k], a[k], rtol=1e-6, atol=0, err_msg=k)
 
 
+def test_threads_follow_omp_num_threads_as_a_dask_worker_sets_it(monkeypatch):
+    """A dask worker's nanny sets OMP_NUM_THREADS=1 (one process per core): the per-pixel passes then use one
+    thread; unset or unreadable, every core this process may use."""
+    import os
+
+    cores = len(os.sched_getaffinity(0))
+    monkeypatch.delenv("OMP_NUM_THREADS", raising=False)
+    assert preview_tiles.default_threads() == cores
+    monkeypatch.setenv("OMP_NUM_THREADS", "1")
+    assert preview_tiles.default_threads() == 1
+    monkeypatch.setenv("OMP_NUM_THREADS", str(cores + 5))
+    assert preview_tiles.default_threads() == cores  # never more threads than cores
+    monkeypatch.setenv("OMP_NUM_THREADS", "4,2")
+    assert preview_tiles.default_threads() == cores
+
+
 def test_huge_page_advice_is_restored():
     try:
         from numpy._core.multiarray import _get_madvise_hugepage
