@@ -174,6 +174,7 @@ CHECK_ONLY_COMMITS: dict[str, str] = {
     "67724fa": "tidying (__all__ reflowed; same behaviour)",
     "1c7e58f": "the visibility rule factored out (same behaviour)",
     "9da4a16": "docstrings of rigsim/preview/multiple.py only (same behaviour)",
+    "18c7c4c": "the per-pixel passes' thread count in dask workers (the image does not depend on it)",
 }
 
 
