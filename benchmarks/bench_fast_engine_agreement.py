@@ -60,6 +60,7 @@ from __future__ import annotations
 import argparse
 import csv
 import math
+import os
 import shlex
 import sys
 import time
@@ -146,10 +147,11 @@ def _engine_id() -> str:
 
 
 #: What makes and compares the two images of a check: a change here since a row's commit makes it a row of an earlier
-#: engine (``--status``).  The study's runner, the sensor, datasets, the UI and the report are not among them.
+#: engine (``--status``); the rigs are the scenes'.  The study's runner, the sensor, datasets, the UI and the report are
+#: not among them.
 ENGINE_PATHS = ("rigsim/preview", "rigsim/water", "rigsim/light", "rigsim/scene", "rigsim/render", "rigsim/daylight",
                 "rigsim/metrics", "rigsim/config", "rigsim/spectrum.py", "rigsim/spectral_image.py",
-                "rigsim/environment.py", "rigsim/data.py", "rigsim/study/case.py", "rigsim/study/spec.py", "data",
+                "rigsim/environment.py", "rigsim/data.py", "rigsim/study/case.py", "rigsim/study/spec.py", "data", "rigs",
                 ":(exclude)data/fast_engine")
 
 
@@ -302,19 +304,28 @@ def main(argv=None) -> int:
                          f"({CELLS.relative_to(ROOT)}; --waters / --rigs select rows when given): the fast images "
                          "alone, "
                          "no Monte Carlo (minutes per row); with --publish those rows are re-made")
+    ap.add_argument("--verify-unchanged", action="store_true",
+                    help="rows of earlier engines (--status) whose fast images this checkout makes bit for bit: each "
+                         "row's cases rendered by the fast engine of the row's commit (a temporary git worktree) and of "
+                         "this checkout and compared array by array (--waters / --rigs select rows when given; ~1 min "
+                         "per row on 2 cores); with --publish such rows are stamped as this engine's")
     ap.add_argument("--publish", action="store_true",
                     help=f"write the per-water summary to {PUBLISHED.relative_to(ROOT)} (the rig designer shows it)")
     args = ap.parse_args(argv)
     if args.status:
         return print_status()
-    if args.rejudge:
-        def picked(name: str) -> set | None:  # the rows asked for: all unless the option was given
-            value = getattr(args, name)
-            return set(_list(value)) if value != ap.get_default(name) else None
+    def picked(name: str) -> set | None:  # the rows asked for: all unless the option was given
+        value = getattr(args, name)
+        return set(_list(value)) if value != ap.get_default(name) else None
 
+    if args.rejudge and args.verify_unchanged:
+        ap.error("--rejudge and --verify-unchanged: one at a time")
+    if args.rejudge:
         return rejudge(waters=picked("waters"), rigs=picked("rigs"), publish=args.publish,
                        command="python benchmarks/bench_fast_engine_agreement.py " + " ".join(
                            shlex.quote(a) for a in (sys.argv[1:] if argv is None else argv)))
+    if args.verify_unchanged:
+        return verify_unchanged(waters=picked("waters"), rigs=picked("rigs"), publish=args.publish)
     if args.quick:
         args.waters, args.distances, args.rigs, args.depths = "clear,coastal-regions,jerlov-3C", "1,3", \
             "twin-strobes-45-wide", ""
@@ -416,6 +427,90 @@ def _settings_value(settings: str, pattern: str, default):
 
     m = re.search(pattern, settings)
     return m.group(1) if m else default
+
+
+def verify_unchanged(*, waters: set | None, rigs: set | None, publish: bool) -> int:
+    """The published rows of earlier engines (not this checkout's, :func:`_same_engine`) whose fast images this
+    checkout makes bit for bit: for each such row's commit, a temporary git worktree of it renders the row's cases
+    with its own fast engine and study template (``benchmarks/fast_snapshot.py``: the image at the check's size and
+    each photon batch's, every layer), this checkout the same, and the arrays are compared.  A row whose arrays are
+    all identical is the same measurement of this engine (the references it was compared with are Monte Carlo
+    renders, which no commit since changed: :data:`ENGINE_PATHS` holds the renderer too, and a change there is
+    not among :data:`CHECK_ONLY_COMMITS`); ``publish`` stamps it so (:func:`rigsim.metrics.agreement.restamp_published`:
+    its engine column this checkout's, a note in its settings).  Rows of the blank engine (before the column) cannot
+    be verified.  Returns 0, or 1 if nothing was asked for."""
+    import datetime
+    import json
+    import subprocess
+    import tempfile
+
+    from benchmarks.fast_snapshot import same_arrays
+    from rigsim.metrics.agreement import read_published, restamp_published
+
+    table = read_published(PUBLISHED)
+    engine = _engine_id()
+    if publish and (not engine or engine.endswith("-dirty")):
+        print(f"this checkout's engine is {engine or 'unknown (no git)'}: commit it before --publish", file=sys.stderr)
+        return 1
+    same: dict[str, bool] = {}
+    todo: dict[str, list] = defaultdict(list)
+    blank = 0
+    for key, r in sorted(table.items()):
+        if (waters is not None and r["water"] not in waters) or (rigs is not None and r["rig"] not in rigs):
+            continue
+        e = r.get("engine") or ""
+        if not e.startswith("commit ") or e.endswith("-dirty"):
+            blank += 1
+            continue
+        if e not in same:
+            same[e] = _same_engine(e.removeprefix("commit "))
+        if not same[e]:
+            todo[e.removeprefix("commit ")].append((key, r))
+    n_rows = sum(len(v) for v in todo.values())
+    print(f"{n_rows} rows of earlier engines to verify ({len(todo)} commits)" +
+          (f"; {blank} rows without a commit cannot be" if blank else ""), flush=True)
+    if not n_rows:
+        return 0 if blank == 0 else 1
+    script = ROOT / "benchmarks" / "fast_snapshot.py"
+    stamps, t0 = {}, time.perf_counter()
+
+    def snap(checkout: Path, rows: list[dict], out: Path) -> None:
+        rows_file = out.with_suffix(".json")
+        rows_file.write_text(json.dumps(rows))
+        env = {**os.environ, "PYTHONPATH": str(checkout)}
+        subprocess.run([sys.executable, str(script), str(checkout), str(rows_file), str(out)], env=env, check=True,
+                       cwd=out.parent)
+
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        for commit, items in sorted(todo.items()):
+            rows = [r for _, r in items]
+            wt = tmp / f"wt-{commit}"
+            subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", "--quiet", str(wt), commit],
+                           check=True)
+            try:
+                snap(wt, rows, tmp / f"old-{commit}")
+                snap(ROOT, rows, tmp / f"new-{commit}")
+            finally:
+                subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(wt)], check=False)
+            for i, (key, r) in enumerate(items):
+                a, b = tmp / f"old-{commit}" / f"{i}.npz", tmp / f"new-{commit}" / f"{i}.npz"
+                if not (a.is_file() and b.is_file()):
+                    err = next((f for f in (a.with_suffix(".error"), b.with_suffix(".error")) if f.is_file()), None)
+                    ok, why = False, "not rendered: " + (err.read_text().strip().splitlines()[-1] if err else "?")
+                else:
+                    ok, why = same_arrays(a, b)
+                print(f"  {'identical' if ok else 'changed  '}  {r['lighting']:<13} {r['water']:<17} {r['rig']:<27} "
+                      f"({r['distances_m']} m; commit {commit}): {why}", flush=True)
+                if ok:
+                    stamps[key] = (engine, f"fast images identical to those of commit {commit} ({why}; "
+                                           f"--verify-unchanged, {datetime.date.today().isoformat()})")
+            print(f"  [{commit}: {time.perf_counter() - t0:.0f} s]", flush=True)
+    print(f"\n{len(stamps)} of {n_rows} rows: this checkout's fast engine makes their images bit for bit")
+    if publish and stamps:
+        n = restamp_published(PUBLISHED, stamps)
+        print(f"stamped {n} rows of {PUBLISHED.relative_to(ROOT)} as {engine}'s")
+    return 0
 
 
 def rejudge(*, waters: set | None, rigs: set | None, publish: bool, command: str) -> int:
@@ -606,8 +701,6 @@ def print_table(rows: list[dict]) -> None:
 
 def _main() -> int:
     """``main``, ending quietly where the reader of its output closed it early (``--status | head``)."""
-    import os
-
     try:
         return main()
     except BrokenPipeError:

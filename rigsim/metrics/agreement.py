@@ -69,8 +69,8 @@ __all__ = ["RegionDeviation", "MetricDeviation", "CLEAR_WATERS", "MIN_CONTRAST",
            "compare_renders", "compare_to_cells", "fast_estimates", "FastEstimates", "moderated_relative_se",
            "MIN_MODERATED", "verdict", "noise_multiplier", "relative_se", "HEAVY_TAIL", "heavy_tailed", "case_key",
            "target_tails", "mean_image", "pooled_metric", "BEYOND_VISIBILITY", "chart_beyond_visibility",
-           "contrast_below_visibility", "judged",
-           "pooled_patches"]
+           "contrast_below_visibility", "judged", "pooled_patches", "PUBLISHED_COLUMNS", "read_published",
+           "restamp_published"]
 
 #: Waters in which the fast engine should agree within 3 % (Jerlov's oceanic types I–III and the
 #: original write-up's clear waters); elsewhere 5 %.
@@ -768,21 +768,12 @@ def write_published(rows: list[dict], path, *, settings: str, engine: str = "", 
     ``cells_header`` says what made them) and remove the cells of the rows it supersedes: the table's numbers
     with what they came from, cell by cell (the fast and reference values, each one's standard error, the
     reference's tail), which a later change of the fast engine can be judged against."""
-    import csv
     import datetime
-    import io
     from collections import defaultdict
     from pathlib import Path
 
-    from rigsim.fileio import atomic_write_text
-
     path = Path(path)
-    old: dict[tuple[str, str, str, str], dict] = {}
-    if path.is_file():
-        with open(path, newline="") as fh:
-            lines = [ln for ln in fh if not ln.startswith("#")]
-        old = {(r["lighting"], r["water"], r["rig"], r["distances_m"]): r
-               for r in csv.DictReader(lines) if r.get("rig")}
+    old = read_published(path)
     by = defaultdict(list)
     for r in rows:
         if r["quantity"] == "radiance":
@@ -814,15 +805,63 @@ def write_published(rows: list[dict], path, *, settings: str, engine: str = "", 
             "tolerance": w["tolerance"], "beyond": sum(r["verdict"] == "disagrees" for r in rs),
             "cells": sum(judged(r) for r in every), "beyond_visibility": sum(not judged(r) for r in every),
             "measured": today, "engine": engine, "settings": settings}
-    cols = ["lighting", "water", "rig", "cases", "distances_m", "worst_deviation", "worst_se", "worst_where", "tolerance",
-            "beyond", "cells", "beyond_visibility", "measured", "engine", "settings"]
+    _write_published_table(path, old)
+
+
+#: The published table's columns (:func:`write_published`).
+PUBLISHED_COLUMNS = ("lighting", "water", "rig", "cases", "distances_m", "worst_deviation", "worst_se", "worst_where",
+                     "tolerance", "beyond", "cells", "beyond_visibility", "measured", "engine", "settings")
+
+
+def read_published(path) -> dict[tuple[str, str, str, str], dict]:
+    """The published table's rows (:func:`write_published`) by (lighting, water, rig, distances_m); {} if none."""
+    import csv
+    from pathlib import Path
+
+    path = Path(path)
+    if not path.is_file():
+        return {}
+    with open(path, newline="") as fh:
+        lines = [ln for ln in fh if not ln.startswith("#")]
+    return {(r["lighting"], r["water"], r["rig"], r["distances_m"]): r for r in csv.DictReader(lines) if r.get("rig")}
+
+
+def _write_published_table(path, table: dict) -> None:
+    """Write the rows ``table`` (key → row, :func:`read_published`) as the published table, atomically."""
+    import csv
+    import io
+    from pathlib import Path
+
+    from rigsim.fileio import atomic_write_text
+
+    path = Path(path)
     buf = io.StringIO()
     buf.write("# The fast engine against Monte Carlo, per water and rig: benchmarks/bench_fast_engine_agreement.py "
               "--publish\n"
               "# (rigsim.metrics.agreement); deviations are fast / Monte Carlo - 1 of region means (fractions)\n")
-    wr = csv.DictWriter(buf, fieldnames=cols, lineterminator="\n")
+    wr = csv.DictWriter(buf, fieldnames=list(PUBLISHED_COLUMNS), lineterminator="\n")
     wr.writeheader()
-    for key in sorted(old):
-        wr.writerow({c: old[key].get(c, "") for c in cols})
+    for key in sorted(table):
+        wr.writerow({c: table[key].get(c, "") for c in PUBLISHED_COLUMNS})
     path.parent.mkdir(parents=True, exist_ok=True)
     atomic_write_text(path, buf.getvalue())
+
+
+def restamp_published(path, stamps: dict[tuple[str, str, str, str], tuple[str, str]]) -> int:
+    """Give rows of the published table another engine: ``stamps`` maps a row's key (:func:`read_published`) to
+    ``(engine, note)``; the row's ``engine`` becomes ``engine`` and ``note`` is added to its ``settings`` (its numbers
+    and ``measured`` date stay).  For rows whose fast images a later engine was shown to make bit for bit
+    (``bench_fast_engine_agreement.py --verify-unchanged``): the same measurement, of that engine too.  Returns the
+    rows changed."""
+    table = read_published(path)
+    n = 0
+    for key, (engine, note) in stamps.items():
+        row = table.get(key)
+        if row is None:
+            continue
+        row["engine"] = engine
+        row["settings"] = f"{row.get('settings', '')}; {note}" if row.get("settings") else note
+        n += 1
+    if n:
+        _write_published_table(path, table)
+    return n

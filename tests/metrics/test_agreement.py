@@ -640,3 +640,82 @@ def test_a_fast_image_judged_against_kept_cells_reads_as_against_the_renders_the
     moved[:3] = 1
     with pytest.raises(ValueError, match="not the kept cells'"):
         compare_to_cells(img(np.asarray(fast2.radiance), moved), kept, "black-disk")
+
+
+def _fast_snapshot_module():
+    import importlib.util
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    spec = importlib.util.spec_from_file_location("fast_snapshot", root / "benchmarks" / "fast_snapshot.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return root, mod
+
+
+def test_a_restamped_row_keeps_its_numbers_and_says_why(tmp_path):
+    """``--verify-unchanged --publish``: a row whose fast images a later engine makes bit for bit gets that engine in
+    its engine column and the reason in its settings; its numbers, its date and the other rows stay."""
+    from rigsim.metrics.agreement import read_published, restamp_published, write_published
+
+    path = tmp_path / "agreement.csv"
+    write_published([_row("wide", "jerlov-9C", "disk", 0.02), _row("edge", "jerlov-7C", "disk", 0.01)], path,
+                    settings="96x64 px", engine="commit 0123456")
+    before = read_published(path)
+    key = next(k for k in before if k[1] == "jerlov-9C")
+    assert restamp_published(path, {key: ("commit 89abcde", "fast images identical to those of commit 0123456"),
+                                     ("strobes", "nowhere", "x", "1"): ("commit 89abcde", "no such row")}) == 1
+    after = read_published(path)
+    assert after[key]["engine"] == "commit 89abcde"
+    assert after[key]["settings"] == "96x64 px; fast images identical to those of commit 0123456"
+    for col in ("worst_deviation", "worst_se", "worst_where", "cells", "beyond", "measured"):
+        assert after[key][col] == before[key][col], col
+    other = next(k for k in before if k[1] == "jerlov-7C")
+    assert after[other] == before[other] and len(after) == 2
+
+
+def test_fast_snapshots_are_compared_bit_for_bit(tmp_path):
+    """The verification's comparison: the same arrays (NaN as NaN) are identical; one value one ulp apart, another
+    dtype or a missing array is a change, named."""
+    _, snap = _fast_snapshot_module()
+    a = {"chart@1/radiance": np.linspace(0.0, 1.0, 12).reshape(3, 4), "chart@1/range_m": np.array([1.0, np.inf, np.nan])}
+    np.savez(tmp_path / "a.npz", **a)
+    np.savez(tmp_path / "b.npz", **a)
+    assert snap.same_arrays(tmp_path / "a.npz", tmp_path / "b.npz") == (True, "2 arrays identical")
+    nudged = dict(a, **{"chart@1/radiance": a["chart@1/radiance"].copy()})
+    nudged["chart@1/radiance"][1, 2] = np.nextafter(nudged["chart@1/radiance"][1, 2], 2.0)
+    np.savez(tmp_path / "c.npz", **nudged)
+    ok, why = snap.same_arrays(tmp_path / "a.npz", tmp_path / "c.npz")
+    assert not ok and why.startswith("chart@1/radiance differs")
+    np.savez(tmp_path / "d.npz", **dict(a, **{"chart@1/radiance": a["chart@1/radiance"].astype(np.float32)}))
+    assert not snap.same_arrays(tmp_path / "a.npz", tmp_path / "d.npz")[0]
+    np.savez(tmp_path / "e.npz", **{"chart@1/radiance": a["chart@1/radiance"]})
+    ok, why = snap.same_arrays(tmp_path / "a.npz", tmp_path / "e.npz")
+    assert not ok and "range_m" in why
+
+
+def test_a_snapshot_is_of_the_rows_study_and_of_the_checkouts_own_package(tmp_path):
+    """The study a snapshot renders is the published row's (its rig or the daylight depth, water, distances, image
+    size, multiple scattering), and a snapshot refuses a checkout whose package is not the one imported (both sides
+    would then be one code and always identical)."""
+    from rigsim.study import load_study
+
+    root, snap = _fast_snapshot_module()
+    row = {"lighting": "daylight-15m", "water": "jerlov-3C", "rig": "ambient-only", "distances_m": "0.5, 6",
+           "settings": "96x64 px, multiple scattering auto, Monte Carlo 4-256 x 32 spp"}
+    (tmp_path / "s.toml").write_text(snap._study_text(root, row))
+    spec = load_study(tmp_path / "s.toml")
+    cases = spec.check_cases()
+    assert sorted({(c.target, c.distance_m, c.depth_m, c.water_name, c.rig_name) for c in cases}) == [
+        ("black-disk", 0.5, 15.0, "jerlov-3C", "ambient-only"), ("black-disk", 6.0, 15.0, "jerlov-3C", "ambient-only"),
+        ("colorchecker", 0.5, 15.0, "jerlov-3C", "ambient-only"), ("colorchecker", 6.0, 15.0, "jerlov-3C", "ambient-only")]
+    assert (spec.check.width, spec.check.height, spec.render.preview_multiple) == (96, 64, "auto")
+    strobes = dict(row, lighting="strobes", rig="twin-strobes-edge-lighting", settings="48x32 px, multiple scattering off")
+    (tmp_path / "t.toml").write_text(snap._study_text(root, strobes))
+    spec = load_study(tmp_path / "t.toml")
+    assert {c.rig_name for c in spec.check_cases()} == {"twin-strobes-edge-lighting"}
+    assert (spec.check.width, spec.render.preview_multiple, spec.check_cases()[0].depth_m) == (48, False, None)
+    with pytest.raises(ValueError, match="image size"):
+        snap._study_text(root, dict(row, settings="Monte Carlo only"))
+    with pytest.raises(SystemExit, match="PYTHONPATH"):
+        snap.snapshot(tmp_path, [row], tmp_path / "out")
