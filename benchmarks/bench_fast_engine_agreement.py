@@ -177,6 +177,7 @@ CHECK_ONLY_COMMITS: dict[str, str] = {
     "1c7e58f": "the visibility rule factored out (same behaviour)",
     "9da4a16": "docstrings of rigsim/preview/multiple.py only (same behaviour)",
     "18c7c4c": "the per-pixel passes' thread count in dask workers (the image does not depend on it)",
+    "f038c33": "the published table's writer shared with --verify-unchanged's restamping (same table)",
 }
 
 
