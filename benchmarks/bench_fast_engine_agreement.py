@@ -62,6 +62,7 @@ import csv
 import math
 import os
 import shlex
+import signal
 import sys
 import time
 from collections import defaultdict
@@ -434,7 +435,9 @@ def verify_unchanged(*, waters: set | None, rigs: set | None, publish: bool) -> 
     """The published rows of earlier engines (not this checkout's, :func:`_same_engine`) whose fast images this
     checkout makes bit for bit: for each such row's commit, a temporary git worktree of it renders the row's cases
     with its own fast engine and study template (``benchmarks/fast_snapshot.py``: the image at the check's size and
-    each photon batch's, every layer), this checkout the same, and the arrays are compared.  A row whose arrays are
+    each photon batch's, every layer), this checkout the same, and the arrays are compared — each row's first case
+    first (a changed engine shows there: a row of the strobes in a water the engine traces costs ~10 s, not ~80 s),
+    then every case of the rows it left identical.  A row whose arrays are
     all identical is the same measurement of this engine (the references it was compared with are Monte Carlo
     renders, which no commit since changed: :data:`ENGINE_PATHS` holds the renderer too, and a change there is
     not among :data:`CHECK_ONLY_COMMITS`); ``publish`` stamps it so (:func:`rigsim.metrics.agreement.restamp_published`:
@@ -448,6 +451,7 @@ def verify_unchanged(*, waters: set | None, rigs: set | None, publish: bool) -> 
     from benchmarks.fast_snapshot import same_arrays
     from rigsim.metrics.agreement import read_published, restamp_published
 
+    subprocess.run(["git", "-C", str(ROOT), "worktree", "prune"], check=False)  # (a killed run's, if any)
     table = read_published(PUBLISHED)
     engine = _engine_id()
     if publish and (not engine or engine.endswith("-dirty")):
@@ -475,38 +479,52 @@ def verify_unchanged(*, waters: set | None, rigs: set | None, publish: bool) -> 
     script = ROOT / "benchmarks" / "fast_snapshot.py"
     stamps, t0 = {}, time.perf_counter()
 
-    def snap(checkout: Path, rows: list[dict], out: Path) -> None:
+    def compare(wt: Path, items: list, out: Path, first_case: bool) -> list[tuple[bool, str]]:
+        """Snapshots of ``items``' rows by the row's commit (worktree ``wt``) and by this checkout, compared."""
         rows_file = out.with_suffix(".json")
-        rows_file.write_text(json.dumps(rows))
-        env = {**os.environ, "PYTHONPATH": str(checkout)}
-        subprocess.run([sys.executable, str(script), str(checkout), str(rows_file), str(out)], env=env, check=True,
-                       cwd=out.parent)
+        rows_file.write_text(json.dumps([r for _, r in items]))
+        for side, checkout in (("old", wt), ("new", ROOT)):
+            subprocess.run([sys.executable, str(script), str(checkout), str(rows_file), str(out / side)]
+                           + (["--first-case"] if first_case else []), check=True, cwd=out.parent,
+                           env={**os.environ, "PYTHONPATH": str(checkout)})
+        res = []
+        for i in range(len(items)):
+            a, b = out / "old" / f"{i}.npz", out / "new" / f"{i}.npz"
+            if a.is_file() and b.is_file():
+                res.append(same_arrays(a, b))
+            else:
+                err = next((f for f in (a.with_suffix(".error"), b.with_suffix(".error")) if f.is_file()), None)
+                res.append((False, "not rendered: " + (err.read_text().strip().splitlines()[-1] if err else "?")))
+        return res
 
-    with tempfile.TemporaryDirectory() as tmp:
-        tmp = Path(tmp)
-        for commit, items in sorted(todo.items()):
-            rows = [r for _, r in items]
-            wt = tmp / f"wt-{commit}"
-            subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", "--quiet", str(wt), commit],
-                           check=True)
-            try:
-                snap(wt, rows, tmp / f"old-{commit}")
-                snap(ROOT, rows, tmp / f"new-{commit}")
-            finally:
-                subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(wt)], check=False)
-            for i, (key, r) in enumerate(items):
-                a, b = tmp / f"old-{commit}" / f"{i}.npz", tmp / f"new-{commit}" / f"{i}.npz"
-                if not (a.is_file() and b.is_file()):
-                    err = next((f for f in (a.with_suffix(".error"), b.with_suffix(".error")) if f.is_file()), None)
-                    ok, why = False, "not rendered: " + (err.read_text().strip().splitlines()[-1] if err else "?")
-                else:
-                    ok, why = same_arrays(a, b)
-                print(f"  {'identical' if ok else 'changed  '}  {r['lighting']:<13} {r['water']:<17} {r['rig']:<27} "
-                      f"({r['distances_m']} m; commit {commit}): {why}", flush=True)
-                if ok:
-                    stamps[key] = (engine, f"fast images identical to those of commit {commit} ({why}; "
-                                           f"--verify-unchanged, {datetime.date.today().isoformat()})")
-            print(f"  [{commit}: {time.perf_counter() - t0:.0f} s]", flush=True)
+    def on_term(signum, frame):  # a kill stops like Ctrl-C: the worktree is removed on the way out
+        raise KeyboardInterrupt
+
+    old_term = signal.signal(signal.SIGTERM, on_term)
+    try:
+        with tempfile.TemporaryDirectory() as tmp:
+            tmp = Path(tmp)
+            for commit, items in sorted(todo.items()):
+                wt = tmp / f"wt-{commit}"
+                subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", "--quiet", str(wt), commit],
+                               check=True)
+                try:  # each row's first case (a changed engine shows there), then the whole of the rows it left identical
+                    first = compare(wt, items, tmp / f"first-{commit}", True)
+                    whole = [(k, r) for (k, r), (ok, _) in zip(items, first) if ok]
+                    results = dict(zip([k for k, _ in whole], compare(wt, whole, tmp / f"all-{commit}", False))) \
+                        if whole else {}
+                finally:
+                    subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(wt)], check=False)
+                for (key, r), f in zip(items, first):
+                    ok, why = results.get(key, f) if f[0] else (False, f"first case: {f[1]}")
+                    print(f"  {'identical' if ok else 'changed  '}  {r['lighting']:<13} {r['water']:<17} {r['rig']:<27} "
+                          f"({r['distances_m']} m; commit {commit}): {why}", flush=True)
+                    if ok:
+                        stamps[key] = (engine, f"fast images identical to those of commit {commit} ({why}; "
+                                               f"--verify-unchanged, {datetime.date.today().isoformat()})")
+                print(f"  [{commit}: {time.perf_counter() - t0:.0f} s]", flush=True)
+    finally:
+        signal.signal(signal.SIGTERM, old_term)
     print(f"\n{len(stamps)} of {n_rows} rows: this checkout's fast engine makes their images bit for bit")
     if publish and stamps:
         n = restamp_published(PUBLISHED, stamps)

@@ -2,7 +2,7 @@
 ``bench_fast_engine_agreement.py --verify-unchanged``, which runs this script once with the checkout of a row's
 engine and once with this one, and compares what they save bit for bit).
 
-    PYTHONPATH=<checkout> python benchmarks/fast_snapshot.py <checkout> <rows.json> <out_dir>
+    PYTHONPATH=<checkout> python benchmarks/fast_snapshot.py <checkout> <rows.json> <out_dir> [--first-case]
 
 ``rows.json``: a list of published rows (``lighting``, ``water``, ``rig``, ``distances_m``, ``settings``:
 ``data/fast_engine/agreement.csv``).  For row ``i`` it writes ``<out_dir>/<i>.npz``: for every case of the row's
@@ -14,6 +14,8 @@ Only the package of the checkout is imported (``rigsim`` from ``PYTHONPATH``; th
 ``sys.path``), through the calls every checkout since 2026-12-05 has: :func:`rigsim.study.case.fast_check_images`
 where it exists, else what the check called before it (``render_preview`` with ``traced_out``, then
 ``render_photon_batches``), without the further seeds of the noise estimate (they change the SE, not the image).
+``--first-case``: each row's first case alone (a changed engine shows in it; the rows it leaves identical are then
+snapshot whole).
 """
 
 from __future__ import annotations
@@ -77,8 +79,8 @@ def fast_images(spec, case) -> tuple:
     return fast, batches
 
 
-def snapshot(checkout: Path, rows: list[dict], out_dir: Path) -> None:
-    """Write each row's arrays (module docstring) to ``out_dir``."""
+def snapshot(checkout: Path, rows: list[dict], out_dir: Path, *, first_case: bool = False) -> None:
+    """Write each row's arrays (module docstring) to ``out_dir`` (``first_case``: of its first case alone)."""
     import rigsim
     from rigsim.study import load_study
 
@@ -93,7 +95,8 @@ def snapshot(checkout: Path, rows: list[dict], out_dir: Path) -> None:
                 p.write_text(_study_text(checkout, row))
                 spec = load_study(p)
             arrays = {}
-            for case in spec.check_cases():
+            cases = spec.check_cases()
+            for case in cases[:1] if first_case else cases:
                 fast, batches = fast_images(spec, case)
                 key = f"{case.target}@{case.distance_m:g}"
                 for j, im in enumerate([fast] + list(batches)):
@@ -126,7 +129,9 @@ def same_arrays(a_file: Path, b_file: Path) -> tuple[bool, str]:
 
 
 if __name__ == "__main__":
-    if len(sys.argv) != 4:
+    args = sys.argv[1:]
+    first = args[3:] == ["--first-case"]
+    if len(args) != 3 and not first:
         print("usage: " + __doc__.strip().splitlines()[3].strip(), file=sys.stderr)
         sys.exit(2)
-    snapshot(Path(sys.argv[1]).resolve(), json.loads(Path(sys.argv[2]).read_text()), Path(sys.argv[3]))
+    snapshot(Path(args[0]).resolve(), json.loads(Path(args[1]).read_text()), Path(args[2]), first_case=first)
