@@ -132,6 +132,6 @@ if __name__ == "__main__":
     args = sys.argv[1:]
     first = args[3:] == ["--first-case"]
     if len(args) != 3 and not first:
-        print("usage: " + __doc__.strip().splitlines()[3].strip(), file=sys.stderr)
+        print("usage: " + next(ln.strip() for ln in __doc__.splitlines() if "PYTHONPATH=" in ln), file=sys.stderr)
         sys.exit(2)
     snapshot(Path(args[0]).resolve(), json.loads(Path(args[1]).read_text()), Path(args[2]), first_case=first)
