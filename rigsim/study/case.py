@@ -199,19 +199,21 @@ def fast_check_images(spec: StudySpec, case: Case, scene=None, water=None) -> tu
     seed = spec.case_seed(case)
     layers = study_layers(water)
     traced: dict = {}
+    reuse: dict = {}  # every image below is of this scene at this size: the lights' single scattering computed once
     fast = render_preview(scene, width=ck.width, height=ck.height, wavelengths_nm=wl, layers=layers,
-                          multiple=spec.render.preview_multiple, seed=seed, traced_out=traced)
+                          multiple=spec.render.preview_multiple, seed=seed, traced_out=traced, reuse=reuse)
     # the fast engine's own noise: the same image with each batch of its multiple-scattering photons
     fast_batches = render_photon_batches(scene, traced, traced_size=(ck.width, ck.height), width=ck.width,
-                                         height=ck.height, wavelengths_nm=wl, layers=layers)
+                                         height=ck.height, wavelengths_nm=wl, layers=layers, reuse=reuse)
     # ... and of further renders with other seeds, for that noise estimate alone (CheckSettings.fast_noise_seeds)
     noise_batches = []
     for j in range(1, ck.fast_noise_seeds + 1 if fast_batches else 1):
         tr: dict = {}
         render_preview(scene, width=ck.width, height=ck.height, wavelengths_nm=wl, layers=layers,
-                       multiple=spec.render.preview_multiple, seed=(seed + 104_729 * j) % 2**32, traced_out=tr)
+                       multiple=spec.render.preview_multiple, seed=(seed + 104_729 * j) % 2**32, traced_out=tr,
+                       reuse=reuse)
         noise_batches.append(render_photon_batches(scene, tr, traced_size=(ck.width, ck.height), width=ck.width,
-                                                   height=ck.height, wavelengths_nm=wl, layers=layers))
+                                                   height=ck.height, wavelengths_nm=wl, layers=layers, reuse=reuse))
     return fast, fast_batches, noise_batches
 
 

@@ -461,6 +461,37 @@ def test_photon_batch_images_average_to_the_image_and_scatter_as_independent_see
     assert f_dist.ppf(0.001, 15, 48) < f < f_dist.ppf(0.999, 15, 48), f
 
 
+def test_renders_that_reuse_the_single_scattering_veil_are_the_images_made_without():
+    """``reuse`` (the batch images of :func:`render_photon_batches`, a check's fast side): the lights' single-
+    scattering veil grid is computed once for renders of one scene at one size and reused; every layer of every
+    image is bit for bit the image made without it, and a render of another size or with other settings sharing the
+    dict computes its own (a wrong grid would show as a different image)."""
+    from rigsim.preview import render_photon_batches
+
+    rig = load_rig("rigs/twin-strobes-close-to-port.toml")
+    scene = build_scene(rig, "jerlov-3C", "black-disk", 3.0, size_m=1.0)
+    kw = dict(wavelengths_nm=WL, layers=("object_id", "backscatter"))
+    traced = {}
+    render_preview(scene, width=64, height=43, seed=3, multiple=True, photons=20_000, traced_out=traced, **kw)
+    reuse: dict = {}
+    shared = render_photon_batches(scene, traced, traced_size=(64, 43), width=64, height=43, reuse=reuse, **kw)
+    assert len(reuse) == 1 and len(shared) == 4
+    alone = [render_preview(scene, width=64, height=43, multiple=True, traced={"strobe": traced["strobe"].batch(k)},
+                            **kw) for k in range(4)]
+    others = [(dict(width=48, height=32), dict(traced={"strobe": traced["strobe"].batch(0).scaled(0.75, 32 / 43)})),
+              (dict(width=64, height=43), dict(traced={"strobe": traced["strobe"].batch(0)}, forward_cutoff_deg=20.0))]
+    for size, extra in others:
+        shared.append(render_preview(scene, multiple=True, reuse=reuse, **size, **extra, **kw))
+        alone.append(render_preview(scene, multiple=True, **size, **extra, **kw))
+    assert len(reuse) == 3
+    for a, b in zip(shared, alone):
+        np.testing.assert_array_equal(a.radiance, b.radiance)
+        assert a.layers.keys() == b.layers.keys()
+        for k in a.layers:
+            np.testing.assert_array_equal(a.layers[k], b.layers[k], err_msg=k)
+    assert not np.array_equal(shared[0].layers["flash"], shared[5].layers["flash"])  # (another cut-off: another image)
+
+
 def test_a_flat_targets_texture_holds_the_light_on_the_side_the_camera_sees():
     """A white disk at 1.5 m in Jerlov 3C with the strobes 1 m behind it, aimed away from the camera: its back
     is lit, the side the camera sees only by light that turns round its rim.  The class-B irradiance the
