@@ -55,6 +55,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -614,10 +615,13 @@ class PublishedAgreement:
         if self.beyond_visibility:
             tail += f" ({self.beyond_visibility} chart cells where the chart cannot be seen not judged)"
         other = f" (not checked with {rig}: these numbers are the {self.rig} rig's)" if rig and rig != self.rig else ""
+        engine = f" (fast engine of {self.engine})" if self.engine else ""
+        was = re.search(r"fast images identical to those of (commit \w+)", self.settings or "")
+        if was and self.engine:  # a row restamped by --verify-unchanged: measured by the earlier engine
+            engine = f" (fast engine of {was[1]}; {self.engine} makes the same images)"
         return (f"fast engine vs Monte Carlo in {self.water} ({self.lighting}, {self.rig}, {self.cases} cases at "
                 f"{self.distances_m} m): worst region {self.worst_deviation:+.1%} ± {self.worst_se:.1%} "
-                f"({self.worst_where}){tail} — measured {self.measured}"
-                f"{f' (fast engine of {self.engine})' if self.engine else ''}{other}")
+                f"({self.worst_where}){tail} — measured {self.measured}{engine}{other}")
 
 
 #: The published summary (in ``data/``): written by ``benchmarks/bench_fast_engine_agreement.py --publish``.

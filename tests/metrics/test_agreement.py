@@ -653,12 +653,15 @@ def _fast_snapshot_module():
     return root, mod
 
 
-def test_a_restamped_row_keeps_its_numbers_and_says_why(tmp_path):
+def test_a_restamped_row_keeps_its_numbers_and_says_why(tmp_path, monkeypatch):
     """``--verify-unchanged --publish``: a row whose fast images a later engine makes bit for bit gets that engine in
-    its engine column and the reason in its settings; its numbers, its date and the other rows stay."""
-    from rigsim.metrics.agreement import read_published, restamp_published, write_published
+    its engine column and the reason in its settings; its numbers, its date and the other rows stay, and its line
+    names the engine that measured it and the one that makes the same images."""
+    import rigsim.data
+    from rigsim.metrics.agreement import (PUBLISHED_TABLE, published_agreement, read_published, restamp_published,
+                                         write_published)
 
-    path = tmp_path / "agreement.csv"
+    path = tmp_path / PUBLISHED_TABLE
     write_published([_row("wide", "jerlov-9C", "disk", 0.02), _row("edge", "jerlov-7C", "disk", 0.01)], path,
                     settings="96x64 px", engine="commit 0123456")
     before = read_published(path)
@@ -672,6 +675,10 @@ def test_a_restamped_row_keeps_its_numbers_and_says_why(tmp_path):
         assert after[key][col] == before[key][col], col
     other = next(k for k in before if k[1] == "jerlov-7C")
     assert after[other] == before[other] and len(after) == 2
+    monkeypatch.setattr(rigsim.data, "DATA_DIR", tmp_path)  # what the rig designer shows: the engine that measured it
+    assert published_agreement("jerlov-9C", rig="wide").sentence("wide").endswith(
+        "(fast engine of commit 0123456; commit 89abcde makes the same images)")
+    assert published_agreement("jerlov-7C", rig="edge").sentence("edge").endswith("(fast engine of commit 0123456)")
 
 
 def test_fast_snapshots_are_compared_bit_for_bit(tmp_path):
