@@ -181,6 +181,7 @@ CHECK_ONLY_COMMITS: dict[str, str] = {
     "f038c33": "the published table's writer shared with --verify-unchanged's restamping (same table)",
     "8aaeb70": "the single-scattering veil grid reused by renders that differ in their traced light alone (the same "
                "images bit for bit: fast_snapshot.py of 3 rows at ce2fa2b and at 8aaeb70, 360 arrays identical)",
+    "5f0421c": "the published line of a restamped row names both engines (text only)",
 }
 
 
