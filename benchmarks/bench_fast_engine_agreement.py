@@ -226,9 +226,13 @@ def print_status(path: Path = PUBLISHED) -> int:
           f"+ t*SE; {over(rows)} rows whose worst cell is beyond its tolerance (within the noise of the difference: "
           f"the reference's and the fast engine's); "
           f"{n(rows, 'beyond_visibility')} chart cells beyond the chart's visibility, not judged")
-    engines = ", ".join(sorted({r['engine'].removeprefix('commit ') for r in cur}))
+    verified = [r for r in cur if "fast images identical to those of" in (r.get("settings") or "")]
+    engines = ", ".join(sorted({r['engine'].removeprefix('commit ') for r in cur if r not in verified}))
     print(f"  this checkout's fast engine{f' (measured at {engines})' if engines else ''}: {len(cur)} rows, "
           f"{n(cur, 'cells')} cells, {n(cur, 'beyond')} beyond, {over(cur)} rows with a worst cell beyond its tolerance")
+    if verified:
+        print(f"    of them measured by an earlier engine whose fast images this one makes bit for bit "
+              f"(--verify-unchanged): {len(verified)} rows")
     before_rule = [r for r in cur if not (r.get("beyond_visibility") or "").strip()]
     if before_rule:
         print(f"    of them judged before the visibility rule (every chart cell judged, also where the chart cannot be "
