@@ -726,12 +726,19 @@ def print_table(rows: list[dict]) -> None:
 
 
 def _main() -> int:
-    """``main``, ending quietly where the reader of its output closed it early (``--status | head``)."""
+    """``main``, ending quietly where the reader of its output closed it early (``--status | head``), and with one
+    line where it is stopped (Ctrl-C, or SIGTERM where the run turns it into one): the renders kept so far stay in
+    ``--out`` for the next run; nothing is published."""
+    from rigsim.errors import Interrupted
+
     try:
         return main()
     except BrokenPipeError:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())  # (Python flushes stdout again at exit)
         return 1
+    except (KeyboardInterrupt, Interrupted):
+        print("interrupted: nothing published (the renders kept in --out are reused by the next run)", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":
