@@ -491,9 +491,11 @@ def verify_unchanged(*, waters: set | None, rigs: set | None, publish: bool) -> 
         rows_file = out.with_suffix(".json")
         rows_file.write_text(json.dumps([r for _, r in items]))
         for side, checkout in (("old", wt), ("new", ROOT)):
-            subprocess.run([sys.executable, str(script), str(checkout), str(rows_file), str(out / side)]
-                           + (["--first-case"] if first_case else []), check=True, cwd=out.parent,
-                           env={**os.environ, "PYTHONPATH": str(checkout)})
+            done = subprocess.run([sys.executable, str(script), str(checkout), str(rows_file), str(out / side)]
+                                  + (["--first-case"] if first_case else []), cwd=out.parent,
+                                  env={**os.environ, "PYTHONPATH": str(checkout)})
+            if done.returncode != 0:  # (its own line is above; each row then reads "not rendered")
+                return [(False, f"not rendered: the {side} side's snapshot ended with exit {done.returncode}")] * len(items)
         res = []
         for i in range(len(items)):
             a, b = out / "old" / f"{i}.npz", out / "new" / f"{i}.npz"
@@ -523,7 +525,7 @@ def verify_unchanged(*, waters: set | None, rigs: set | None, publish: bool) -> 
                 finally:
                     subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(wt)], check=False)
                 for (key, r), f in zip(items, first):
-                    ok, why = results.get(key, f) if f[0] else (False, f"first case: {f[1]}")
+                    ok, why = results.get(key, (False, "not compared whole")) if f[0] else (False, f"first case: {f[1]}")
                     print(f"  {'identical' if ok else 'changed  '}  {r['lighting']:<13} {r['water']:<17} {r['rig']:<27} "
                           f"({r['distances_m']} m; commit {commit}): {why}", flush=True)
                     if ok:
