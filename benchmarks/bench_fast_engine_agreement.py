@@ -451,7 +451,7 @@ def verify_unchanged(*, waters: set | None, rigs: set | None, publish: bool) -> 
     renders, which no commit since changed: :data:`ENGINE_PATHS` holds the renderer too, and a change there is
     not among :data:`CHECK_ONLY_COMMITS`); ``publish`` stamps it so (:func:`rigsim.metrics.agreement.restamp_published`:
     its engine column this checkout's, a note in its settings).  Rows of the blank engine (before the column) cannot
-    be verified.  Returns 0, or 1 if nothing was asked for."""
+    be verified.  Returns 0; 1 where the rows asked for are all such rows, or for ``publish`` on uncommitted code."""
     import datetime
     import json
     import subprocess
@@ -482,7 +482,7 @@ def verify_unchanged(*, waters: set | None, rigs: set | None, publish: bool) -> 
             todo[e.removeprefix("commit ")].append((key, r))
     n_rows = sum(len(v) for v in todo.values())
     print(f"{n_rows} rows of earlier engines to verify ({len(todo)} commits)" +
-          (f"; {blank} rows without a commit cannot be" if blank else ""), flush=True)
+          (f"; {blank} rows without a commit cannot be verified" if blank else ""), flush=True)
     if not n_rows:
         return 0 if blank == 0 else 1
     script = ROOT / "benchmarks" / "fast_snapshot.py"
