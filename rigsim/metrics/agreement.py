@@ -69,8 +69,8 @@ __all__ = ["RegionDeviation", "MetricDeviation", "CLEAR_WATERS", "MIN_CONTRAST",
            "cells_file_name", "CELL_COLUMNS", "PUBLISHED_TABLE", "tolerance_for", "comparison_regions",
            "compare_renders", "compare_to_cells", "fast_estimates", "FastEstimates", "moderated_relative_se",
            "MIN_MODERATED", "verdict", "noise_multiplier", "relative_se", "HEAVY_TAIL", "heavy_tailed", "case_key",
-           "target_tails", "mean_image", "pooled_metric", "BEYOND_VISIBILITY", "chart_beyond_visibility",
-           "contrast_below_visibility", "judged", "pooled_patches", "PUBLISHED_COLUMNS", "read_published",
+           "target_tails", "mean_image", "has_particle_layer", "pooled_metric", "BEYOND_VISIBILITY",
+           "chart_beyond_visibility", "contrast_below_visibility", "judged", "pooled_patches", "PUBLISHED_COLUMNS", "read_published",
            "restamp_published"]
 
 #: Waters in which the fast engine should agree within 3 % (Jerlov's oceanic types I–III and the
@@ -322,22 +322,34 @@ def comparison_regions(object_id: np.ndarray, legend: dict[str, str], target_kin
     return out
 
 
-def _spectral_keys(image) -> list[str]:
-    return [k for k in image.layers if k in SPECTRAL_LAYERS or k.startswith("flash")]
+def _spectral_keys(image, *others) -> list[str]:
+    """The spectral layers of ``image`` (that every one of ``others`` has too)."""
+    return [k for k in image.layers if (k in SPECTRAL_LAYERS or k.startswith("flash"))
+            and all(k in o.layers for o in others)]
+
+
+def has_particle_layer(image) -> bool:
+    """Whether a render carries the particles' light (its ``particles`` / ``flash_particles`` layer: the second,
+    particle-free pass of :func:`rigsim.render.render`), which a speck share is measured from."""
+    return "particles" in image.layers or "flash_particles" in image.layers
 
 
 def _with_spectra(first, radiance, layers: dict):
-    """``first`` with its radiance and spectral layers replaced (the rest — object ids, range — kept)."""
-    return dataclasses.replace(first, radiance=radiance, layers={**first.layers, **layers})
+    """``first`` with its radiance and spectral layers replaced by ``radiance`` and ``layers`` (a spectral layer
+    of its own not among them is dropped; the rest — object ids, range — kept)."""
+    spectral = set(_spectral_keys(first))
+    return dataclasses.replace(first, radiance=radiance,
+                               layers={**{k: v for k, v in first.layers.items() if k not in spectral}, **layers})
 
 
 def mean_image(images: list):
     """The mean of renders of one scene (:class:`~rigsim.spectral_image.SpectralImage`, same shape): their
-    radiance and spectral layers averaged, the rest (object ids, range, …) the first's."""
+    radiance and the spectral layers they all have averaged (a layer some lack is left out), the rest (object
+    ids, range, …) the first's."""
     first = images[0]
+    keys = _spectral_keys(first, *images[1:])
     return _with_spectra(first, np.mean([np.asarray(i.radiance, float) for i in images], axis=0),
-                         {k: np.mean([np.asarray(i.layers[k], float) for i in images], axis=0)
-                          for k in _spectral_keys(first)})
+                         {k: np.mean([np.asarray(i.layers[k], float) for i in images], axis=0) for k in keys})
 
 
 def pooled_metric(images: list, fn) -> tuple[dict, dict]:
@@ -357,7 +369,7 @@ def pooled_metric(images: list, fn) -> tuple[dict, dict]:
     if n < 2:
         return whole, {k: float("nan") for k in whole}
     first = images[0]
-    keys = _spectral_keys(first)
+    keys = _spectral_keys(first, *images[1:])
     total_r = np.sum([np.asarray(i.radiance, float) for i in images], axis=0)
     total_l = {k: np.sum([np.asarray(i.layers[k], float) for i in images], axis=0) for k in keys}
     loo = [fn(_with_spectra(first, (total_r - np.asarray(i.radiance, float)) / (n - 1),
@@ -425,7 +437,9 @@ def compare_renders(fast, references: list, target_kind: str, *, fast_batches: l
         :class:`~rigsim.spectral_image.SpectralImage` from :func:`rigsim.preview.render_preview`
         with ``object_id`` (and ``backscatter`` for the share).
     references
-        Monte Carlo renders of the same scene, size and bands, independent seeds (at least two).
+        Monte Carlo renders of the same scene, size and bands, independent seeds (at least two).  With
+        marine snow the speck share is measured on those with the particles' layer (:func:`has_particle_layer`)
+        where not all have it (at least two; else it is not compared).
     target_kind
         The target's kind (which regions and contrast).
     fast_batches
@@ -455,6 +469,16 @@ def compare_renders(fast, references: list, target_kind: str, *, fast_batches: l
         out.append(RegionDeviation(name, g, px, f, float(per.mean()), float(per.std(ddof=1) / math.sqrt(n)),
                                    float(per.max() / med) if med > 0 else float("nan"), f_se))
     mref, ref_se = pooled_metric(references, est.radiance_metrics)
+    specked = [r for r in references if has_particle_layer(r)]
+    if fast.meta.get("particles") and len(specked) < len(references):
+        # marine snow, where only some renders made the particle-free pass (a check's pilot, compute_check): the
+        # speck share from those renders alone (the others' mean has no particles' light to measure it on)
+        mref.pop("speck_share", None)
+        ref_se.pop("speck_share", None)
+        if len(specked) >= 2:
+            m_p, se_p = pooled_metric(specked, est.radiance_metrics)
+            if "speck_share" in m_p:
+                mref["speck_share"], ref_se["speck_share"] = m_p["speck_share"], se_p["speck_share"]
     return out, _metric_deviations(est, mref, ref_se)
 
 

@@ -480,6 +480,11 @@ def trust_section(d: Path, agreement: list[dict], spec: dict) -> list[str]:
     t_text = (f"{noise_multiplier(counts[0]):.2f} standard errors: Student's t for {counts[0]} renders"
               if len(counts) == 1 else f"Student's t for each case's renders: {noise_multiplier(counts[-1]):.2f}–"
               f"{noise_multiplier(counts[0]):.2f} standard errors")
+    speck_n = sorted({int(r["seeds"]) for r in agreement if r.get("quantity") == "speck_share" and r.get("seeds")})
+    speck_text = ("" if not speck_n else
+                  f"; the speck share (marine snow) on the first "
+                  f"{speck_n[0] if len(speck_n) == 1 else f'{speck_n[0]}–{speck_n[-1]}'} renders of each case, the "
+                  f"ones also rendered without the particles (the particles' light is the difference)")
     out = [f"<h2>How far to trust these numbers</h2>"
            f"<p>Every photograph and number above comes from the fast engine.  {len({(r['rig'], r['water'], r['target'], r['distance_m']) for r in agreement})} "
            f"cases, chosen to cover the study's waters and distances, were also rendered by the Monte Carlo renderer "
@@ -491,7 +496,7 @@ def trust_section(d: Path, agreement: list[dict], spec: dict) -> list[str]:
            f"scattered light is traced with photons, and each batch of them makes its own image); green: within "
            f"the tolerance, yellow: within it plus the 95 % confidence half-width ({t_text}), red: beyond.  Contrast and backscatter share are the scene metrics of the tables "
            f"above, each measured on the mean of the Monte Carlo renders (a render's own noise would bias a "
-           f"contrast upwards) with a jackknife standard error.  Where one Monte Carlo render of a region — or of another region of the same target — is "
+           f"contrast upwards) with a jackknife standard error{speck_text}.  Where one Monte Carlo render of a region — or of another region of the same target — is "
            f"{HEAVY_TAIL:g} or more times the median render, the cell says so: there the reference itself is not "
            f"converged (rare paths carry much of the light; renders that missed them read low with a small "
            f"spread, so its standard error understates its error).  Every value is in agreement.csv "

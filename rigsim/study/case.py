@@ -248,22 +248,30 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
 
     mc_layers = ("object_id", "backscatter") + tuple(k for k in layers if k.startswith("particle"))
     keep = None if render_cache is None else cached_render_dir(render_cache, spec, case)
+    from rigsim.metrics.agreement import has_particle_layer
+    from rigsim.render.hybrid import DEFAULT_FIT_ORDER, hybrid_group
+
+    group = hybrid_group(scene)
+    hybrid = ck.reference == "hybrid" and group is not None
+    # marine snow: the particles' light (a second, particle-free pass of every render: about 1.6x a render's time)
+    # only in the pilot's renders, which the speck share is measured on (compare_renders); the renders the
+    # pilot asks for beyond them serve the regions' means and the contrast
+    particle_renders = ck.seeds * (ck.hybrid_veil_renders if hybrid else 1) if "particles" in mc_layers else 0
 
     def mc(i):
         f = None if keep is None else keep / f"render-{i:03d}"
         img = None if f is None else _read_render(f, (ck.height, ck.width, len(wl)))
+        if img is not None and i < particle_renders and not has_particle_layer(img):
+            img = None  # kept without the particles' light (by a check that wanted fewer renders with it)
         if img is None:
+            want = mc_layers if i < particle_renders else tuple(k for k in mc_layers if k != "particles")
             img = render(scene, width=ck.width, height=ck.height, spp=ck.spp, seed=(seed + 7919 * i) % 2**32,
-                         integrator=ck.integrator, wavelengths_nm=wl, layers=mc_layers)
+                         integrator=ck.integrator, wavelengths_nm=wl, layers=want)
             if f is not None:
                 _write_render(f, img)
         return img
 
-    from rigsim.render.hybrid import DEFAULT_FIT_ORDER, hybrid_group
-
-    group = hybrid_group(scene)
     fit_order = DEFAULT_FIT_ORDER if ck.hybrid_order is None else ck.hybrid_order
-    hybrid = ck.reference == "hybrid" and group is not None
     veil = {"k": ck.hybrid_veil_renders, "render": {}, "pass": {}, "render_s": [], "pass_s": []}
     if hybrid:  # the regions the check judges, for the split of the pilot's noise (_veil_allocation)
         from rigsim.metrics.agreement import colour_groups, comparison_regions
@@ -349,6 +357,7 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
                          "order": fit_order}
               if hybrid else None,
               "fast_noise_renders": 1 + len(noise_batches) if fast_batches else 0,
+              "particle_renders": sum(has_particle_layer(r) for r in refs) if particle_renders else None,
               "fast_wall_time_s": t_fast, "monte_carlo_wall_time_s": t_mc,
               "regions": [r.record() for r in regions], "metrics": [m.record() for m in metrics]}
     from rigsim.spectral_image import srgb_preview

@@ -309,12 +309,15 @@ def agreement_rows(checks: list[dict]) -> list[dict]:
         for m in rec["metrics"]:
             if m["metric"] == "contrast_radiance" and not float(m["reference"]) >= MIN_CONTRAST:
                 continue
-            rows.append({**base, "quantity": m["metric"], "region": "target", "group": "luminance", "pixels": None,
+            # marine snow: the speck share is measured on the renders with the particles' light (compute_check)
+            n = (rec.get("particle_renders") or rec.get("seeds")) if m["metric"] == "speck_share" else rec.get("seeds")
+            rows.append({**base, "seeds": n, "quantity": m["metric"], "region": "target", "group": "luminance",
+                         "pixels": None,
                          "fast": m["fast"], "monte_carlo": m["reference"], "monte_carlo_se": m["reference_se"],
                          "fast_se": m.get("fast_se", 0.0),
                          "deviation": m["deviation"], "deviation_se": m["deviation_se"],
                          "verdict": BEYOND_VISIBILITY if unseen and m["metric"] == "contrast_radiance" else
-                         verdict(m["deviation"], m["deviation_se"], rec["tolerance"], rec.get("seeds"))})
+                         verdict(m["deviation"], m["deviation_se"], rec["tolerance"], n)})
     return rows
 
 

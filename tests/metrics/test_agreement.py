@@ -219,6 +219,55 @@ def test_a_contrast_is_measured_on_the_mean_of_the_renders_with_a_jackknife_erro
     assert np.mean(averaged) > 2 * true_c, np.mean(averaged)
 
 
+def test_a_speck_share_is_measured_on_the_renders_with_the_particles_light_alone():
+    """With marine snow a check renders the particles' light (a second, particle-free pass) only for its pilot's
+    renders (:func:`rigsim.study.case.compute_check`): the speck share is measured on those renders (their
+    mean, jackknife SE), the regions and the contrast on all of them; a mean image of renders that do not all
+    carry a layer leaves it out (not the first render's own); with fewer than two such renders the speck share
+    is not compared."""
+    from rigsim.metrics.agreement import compare_renders, has_particle_layer, mean_image, pooled_metric
+    from rigsim.spectral_image import SpectralImage
+
+    wl = np.array([450.0, 550.0, 650.0])
+    rows, cols = 30, 40
+    y, x = np.mgrid[0:rows, 0:cols]
+    oid = ((np.abs(y - 15) <= 6) & (np.abs(x - 20) <= 8)).astype(np.int32)  # a white target
+    pid = np.zeros((rows, cols), np.int32)
+    pid[2:4, 2:4], pid[25:27, 33:35] = 1, 2  # two specks in the water
+    rng = np.random.default_rng(3)
+
+    def img(with_particles, level=1.0):
+        base = np.where(oid == 1, 0.8, 0.2)[..., None] * np.ones(3) * level
+        part = np.where(pid > 0, 0.3, 0.0)[..., None] * np.ones(3) * (1 + 0.3 * rng.standard_normal())
+        layers = {"object_id": oid, "particle_id": pid}
+        if with_particles:
+            layers["particles"] = part.astype(np.float32)
+        return SpectralImage(radiance=(base + part).astype(np.float32), wavelength_nm=wl,
+                             bandwidth_nm=np.full(3, 100.0), layers=layers,
+                             meta={"object_ids": {"1": "chart"}, "particles": {"count": 2}})
+
+    fast = img(True)
+    refs = [img(True, 1 + 0.01 * k) for k in range(3)] + [img(False, 1 - 0.01 * k) for k in range(3)]
+    assert [has_particle_layer(r) for r in refs] == [True] * 3 + [False] * 3
+    assert "particles" not in mean_image(refs).layers and "particles" in mean_image(refs[:3]).layers
+    _, metrics = compare_renders(fast, refs, "white-disk")
+    got = {m.metric: m for m in metrics}
+    from rigsim.metrics.agreement import fast_estimates
+
+    fn = fast_estimates(fast, "white-disk").radiance_metrics
+    m3, se3 = pooled_metric(refs[:3], fn)
+    m6, se6 = pooled_metric(refs, fn)
+    assert got["speck_share"].reference == pytest.approx(m3["speck_share"])
+    assert got["speck_share"].reference_se == pytest.approx(se3["speck_share"])
+    # (measured on all six renders' mean, which has no particles' light, it would read 0)
+    assert got["speck_share"].reference > 0 and not m6.get("speck_share")
+    assert got["contrast_radiance"].reference == pytest.approx(m6["contrast_radiance"])
+    assert got["contrast_radiance"].reference_se == pytest.approx(se6["contrast_radiance"])
+    # one render with the particles' light: no speck share to compare
+    _, metrics = compare_renders(fast, refs[2:], "white-disk")
+    assert "speck_share" not in {m.metric for m in metrics} and "contrast_radiance" in {m.metric for m in metrics}
+
+
 def _row(rig, water, region, dev, verdict="agrees", se=0.01, distance=1.0):
     return {"rig": rig, "water": water, "target": "black-disk", "distance_m": distance, "quantity": "radiance",
             "region": region, "group": "blue", "deviation": dev, "deviation_se": se, "tolerance": 0.05,

@@ -30,3 +30,13 @@ def test_the_trust_table_says_which_cases_are_referenced_by_the_hybrid_estimate(
         {**_row("disk", 0.01, 1.0, "agrees", 3.0), "target": "black-disk", "reference": "monte-carlo"}]
     html = "".join(trust_section(tmp_path, hybrid, {}))
     assert "One chart case lit by strobes is referenced by the hybrid estimate" in html
+
+
+def test_the_trust_table_says_how_many_renders_a_speck_share_was_measured_on(tmp_path):
+    """With marine snow the checks render the particles' light for their pilot's renders alone (compute_check):
+    the report says on how many renders the speck share stands, and says nothing of it without one."""
+    rows = [_row("patch:red", 0.02, 1.1, "agrees"), _row("open water", -0.01, 1.0, "agrees")]
+    assert "speck share (marine snow) on the first" not in "".join(trust_section(tmp_path, rows, {}))
+    speck = {**_row("target", 0.03, None, "agrees"), "quantity": "speck_share", "group": "luminance", "seeds": 4}
+    html = "".join(trust_section(tmp_path, rows + [speck], {}))
+    assert "the speck share (marine snow) on the first 4 renders of each case" in html
