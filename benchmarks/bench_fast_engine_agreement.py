@@ -184,6 +184,8 @@ CHECK_ONLY_COMMITS: dict[str, str] = {
     "8aaeb70": "the single-scattering veil grid reused by renders that differ in their traced light alone (the same "
                "images bit for bit: fast_snapshot.py of 3 rows at ce2fa2b and at 8aaeb70, 360 arrays identical)",
     "5f0421c": "the published line of a restamped row names both engines (text only)",
+    "f09dcee": "marine snow checks: the particle-free pass for the pilot's renders alone (no benchmark water has "
+               "particles; the fast engine unchanged)",
 }
 
 
