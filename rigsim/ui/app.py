@@ -233,6 +233,10 @@ class RigDesigner:
         self._render_task = None
         self._cache_pred = _LRU(64)
         self._cache_curve = _LRU(512)
+        # the last few renders of the live preview (a 960x640 one with its layers is ~0.2 GB) and of the comparison's
+        # cells: an edit of the sensor, exposure or white balance re-develops one of them (rigsim.ui.predict.predict);
+        # touched by the one worker thread only
+        self._cache_render = {"preview": _LRU(2), "compare": _LRU(8)}
         self._drawn: set[str] = set()
         self._camera_set = False
         self.pinned: RigDoc | None = None
@@ -735,7 +739,8 @@ class RigDesigner:
         if key in self._cache_pred:
             p = self._cache_pred[key]
             return dataclasses.replace(p, label=label)
-        p = await self._run(predict, rig, cond, label=label, quality=quality)
+        p = await self._run(predict, rig, cond, label=label, quality=quality,
+                            render_cache=self._cache_render.get(quality.name), rig_key=key[0])
         self._cache_pred.put(key, p)
         return p
 
@@ -782,7 +787,8 @@ class RigDesigner:
         s.exposure_text = exposure_text(pred)
         kind = "converged render" if converged else "preview"
         s.preview_title = f"{kind}: {pred.label} · {self.cond.water} · {self.cond.distance_m:g} m · {self.cond.target}"
-        s.preview_info = f"{pred.engine} · {pred.width}×{pred.height} px · {pred.seconds:.2f} s"
+        s.preview_info = (f"{pred.engine} · {pred.width}×{pred.height} px · {pred.seconds:.2f} s"
+                          + (" (the same render, photographed again)" if pred.reused else ""))
         s.agreement_text = agreement_text(self.cond.water, rig=self.rig.name, converged=converged)
         s.preview_gen = self.gen
         s.preview_busy = False

@@ -44,7 +44,7 @@ from rigsim.scene.types import Rig
 
 log = logging.getLogger(__name__)
 
-__all__ = ["Conditions", "Prediction", "Quality", "QUALITIES", "PREVIEW", "CURVE", "predict",
+__all__ = ["Conditions", "Prediction", "Quality", "QUALITIES", "PREVIEW", "CURVE", "predict", "SCENE_CONDITIONS",
            "contrast_curve", "measure", "preview_engine", "image_size", "load_water_cached", "TARGETS",
            "WHITE_BALANCES", "METRIC_LABELS"]
 
@@ -80,7 +80,8 @@ class Quality:
     fallback_spp: int = 4  # paths per pixel when the preview model is missing and a render stands in
 
 
-#: The live preview (photograph-sized: the fast engine makes it in about a second).
+#: The live preview (photograph-sized: the fast engine makes it in 1-4.5 s on 2 cores, by the water and the machine;
+#: an edit of the sensor or exposure alone re-develops the last render, well under a second: :func:`predict`).
 PREVIEW = Quality("preview", 960, None)
 #: Each cell of the side-by-side comparison (shown small; up to four of them per edit).
 COMPARE = Quality("compare", 320, None)
@@ -148,6 +149,11 @@ class Conditions:
         return dataclasses.replace(self, **kw)
 
 
+#: The fields of :class:`Conditions` that change the scene and so the render; the others (sensor, exposure, white
+#: balance, and ``depth_m``, which tints the 3-D view only) change only how the render is photographed.
+SCENE_CONDITIONS = ("water", "water_overrides", "distance_m", "target", "target_fill", "particles")
+
+
 @dataclass(frozen=True, eq=False)
 class Prediction:
     """A predicted photograph and its numbers."""
@@ -162,6 +168,19 @@ class Prediction:
     spp: int | None
     label: str = ""
     notes: tuple[str, ...] = field(default_factory=tuple)
+    reused: bool = False  # the render came from ``render_cache``: only the photograph was made (``seconds``)
+
+
+@dataclass(frozen=True, eq=False)
+class _Rendered:
+    """A render and what is measured on it alone: what :func:`predict` keeps between edits of the photograph."""
+
+    si: object
+    metrics: dict
+    masks: dict
+    engine: str
+    width: int
+    height: int
 
 
 # ----------------------------------------------------------------------------- engines
@@ -290,8 +309,14 @@ def _develop(si, rig: Rig, cond: Conditions, masks: dict, seed: int):
 # ----------------------------------------------------------------------------- public
 
 def predict(rig: Rig, cond: Conditions, *, quality: Quality = PREVIEW, seed: int = 0, label: str = "",
-            progress: Callable[[float, str], None] | None = None) -> Prediction:
+            progress: Callable[[float, str], None] | None = None, render_cache=None,
+            rig_key: str | None = None) -> Prediction:
     """Render (preview or converged), photograph with the sensor, measure.
+
+    ``render_cache`` (a mapping with ``put``, e.g. the designer's LRU; one thread at a time) and ``rig_key`` (a
+    string that changes with any edit of the rig): the render of the same rig, scene conditions
+    (:data:`SCENE_CONDITIONS`), quality and seed is taken from there instead of rendered again, so an edit of the
+    sensor, exposure or white balance only makes the photograph (``Prediction.reused``).
 
     Raises
     ------
@@ -299,11 +324,21 @@ def predict(rig: Rig, cond: Conditions, *, quality: Quality = PREVIEW, seed: int
         An impossible setup (target inside the port, unknown water or sensor …), one line.
     """
     t0 = time.perf_counter()
-    scene = _scene(rig, cond)
-    w, h = image_size(rig, quality.width)
-    engine, fn = preview_engine(quality) if quality.spp is None else _full_render(quality.spp, seed)
-    si = fn(scene, w, h, quality.wavelengths_nm, progress)
-    metrics, masks = measure(si, cond.target)
+    key = (None if render_cache is None or rig_key is None else
+           (rig_key, tuple(getattr(cond, f) for f in SCENE_CONDITIONS), quality, seed))
+    r = render_cache.get(key) if key is not None else None
+    reused = r is not None
+    if r is None:
+        scene = _scene(rig, cond)
+        w, h = image_size(rig, quality.width)
+        engine, fn = preview_engine(quality) if quality.spp is None else _full_render(quality.spp, seed)
+        si = fn(scene, w, h, quality.wavelengths_nm, progress)
+        metrics, masks = measure(si, cond.target)
+        r = _Rendered(si, metrics, masks, engine, w, h)
+    if key is not None:
+        render_cache.put(key, r)  # (again where it was there: the most recently used)
+    si, masks, w, h, engine = r.si, r.masks, r.width, r.height, r.engine
+    metrics = dict(r.metrics)
     cap, sensor, ex, exposure = _develop(si, rig, cond, masks, seed)
     metrics.update(measure(si, cond.target, cap=cap, sensor=sensor, exposure=ex, masks=masks,
                            radiance_metrics=False)[0])
@@ -314,7 +349,7 @@ def predict(rig: Rig, cond: Conditions, *, quality: Quality = PREVIEW, seed: int
         notes.append("target too small in the frame to measure contrast")
     return Prediction(srgb=np.asarray(cap.srgb), metrics=metrics, exposure=exposure, engine=engine,
                       seconds=time.perf_counter() - t0, width=w, height=h, spp=quality.spp, label=label,
-                      notes=tuple(notes))
+                      notes=tuple(notes), reused=reused)
 
 
 def contrast_curve(rig: Rig, cond: Conditions, distances_m: Sequence[float], *,

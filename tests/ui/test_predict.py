@@ -59,6 +59,49 @@ def test_marine_snow_specks_fall_as_the_strobes_swing_out(doc):
     assert "speck_count" not in plain.metrics and "speck_count" not in {r["key"] for r in metric_rows(plain)}
 
 
+@pytest.mark.render
+def test_an_edit_of_the_photograph_alone_redevelops_the_last_render(doc, monkeypatch):
+    """With a render cache, a change of sensor, exposure, white balance or the 3-D view's depth makes only the
+    photograph: the engine is not called again, and the prediction is the one made from scratch, bit for bit;
+    a change of the scene (distance, water) or of the rig renders again."""
+    from collections import OrderedDict
+
+    import rigsim.ui.predict as P
+
+    calls = []
+    real = P.preview_engine
+
+    def counting(quality=P.PREVIEW):
+        name, fn = real(quality)
+
+        def counted(*a, **kw):
+            calls.append(a[1:3])
+            return fn(*a, **kw)
+        return name, counted
+
+    monkeypatch.setattr(P, "preview_engine", counting)
+
+    class LRU(OrderedDict):
+        def put(self, k, v):
+            self[k] = v
+
+    cache, q = LRU(), P.Quality("preview", 160, None)
+    cond = Conditions(water="coastal", distance_m=1.5)
+    first = predict(doc.rig(), cond, quality=q, render_cache=cache, rig_key="a")
+    assert len(calls) == 1 and not first.reused
+    edits = [cond.replace(sensor="action_cam_1-2.3in"), cond.replace(exposure="manual", shutter_s=1 / 60, iso=400),
+             cond.replace(white_balance="grayworld"), cond.replace(depth_m=25.0)]
+    for c in edits:
+        again = predict(doc.rig(), c, quality=q, render_cache=cache, rig_key="a")
+        fresh = predict(doc.rig(), c, quality=q)
+        assert again.reused and not fresh.reused
+        assert np.array_equal(again.srgb, fresh.srgb) and again.metrics == fresh.metrics, c
+    assert len(calls) == 1 + len(edits)  # the fresh ones only
+    for c, rig_key in ((cond.replace(distance_m=2.0), "a"), (cond.replace(water="clear"), "a"), (cond, "b")):
+        assert not predict(doc.rig(), c, quality=q, render_cache=cache, rig_key=rig_key).reused
+    assert len(calls) == 4 + len(edits)
+
+
 def test_bad_conditions_are_one_line(doc):
     with pytest.raises(ConfigError, match="closer than the port"):
         predict(doc.rig(), Conditions(distance_m=0.05))
