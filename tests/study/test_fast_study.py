@@ -99,6 +99,28 @@ def test_two_stage_checks_take_more_renders_only_where_the_first_are_too_noisy(t
         assert rec["seeds"] == want and rec["pilot"]["seeds"] == 2 and rec["pilot"]["se_p90"] > 0
 
 
+def test_a_marine_snow_check_renders_the_particles_light_for_its_pilot_alone(tmp_path):
+    """With marine snow, the renders a two-stage check takes beyond its pilot skip the particle-free pass: the kept
+    renders beyond the pilot carry no particles' layer, the record says how many do, and the speck share's row is
+    judged on that many renders (its Student's t)."""
+    from rigsim.study.case import cached_render_dir, compute_check
+    from rigsim.study.runner import agreement_rows
+
+    snow = ROOT / "studies" / "waters" / "coastal-marine-snow.toml"
+    spec = load_study(fast_study(tmp_path, waters=f'["{snow}"]', distances="[1.5]", render_extra="check_with_mitsuba = 1",
+                                 extra="\n[check]\nwidth = 24\nheight = 16\nspp = 4\nseeds = 2\nmax_seeds = 3\n"
+                                       "target_se = 0.0001\n"))
+    case = spec.check_cases()[0]
+    rec = compute_check(spec, case, render_cache=tmp_path / "mc")["record"]
+    assert rec["seeds"] == 3 and rec["particle_renders"] == 2
+    kept = cached_render_dir(tmp_path / "mc", spec, case)
+    layers = [json.loads((kept / f"render-{i:03d}" / "meta.json").read_text())["layers"] for i in range(3)]
+    assert ["flash_particles" in x for x in layers] == [True, True, False]
+    speck = [r for r in agreement_rows([rec]) if r["quantity"] == "speck_share"]
+    assert len(speck) == 1 and speck[0]["seeds"] == 2
+    assert {r["seeds"] for r in agreement_rows([rec]) if r["quantity"] != "speck_share"} == {3}
+
+
 def test_a_chart_beyond_its_visibility_takes_no_more_renders_for_its_patches(tmp_path):
     """A chart in Jerlov 9C at 6 m cannot be seen (its contrast far below 1 % in both engines): its patches are
     listed, not judged (verdict "beyond visibility"), and the two-stage reference sizes itself on the regions that
