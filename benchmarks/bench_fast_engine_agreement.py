@@ -248,6 +248,14 @@ def print_status(path: Path = PUBLISHED) -> int:
         groups[(r["lighting"], r["rig"])].append(f"{r['water']} ({r['distances_m']} m)")
     for (light, rig), ws in sorted(groups.items()):
         print(f"    {light:<14} {rig:<28} {'; '.join(ws)}")
+    beyond_bare = sorted((r for r in rows if abs(float(r["worst_deviation"])) > float(r["tolerance"])),
+                         key=lambda r: -abs(float(r["worst_deviation"])))
+    if beyond_bare:  # the rows that keep the table from its tolerances, largest first (what to make again first)
+        print("  rows whose worst cell is beyond its bare tolerance, largest first (worst cell ± its SE; engine):")
+        for r in beyond_bare:
+            print(f"    {r['lighting']:<14} {r['rig']:<28} {r['water']:<11} ({r['distances_m']} m)  "
+                  f"{100 * float(r['worst_deviation']):+.1f} ± {100 * float(r['worst_se']):.1f} %  {r['worst_where']}; "
+                  f"{'this engine' if same[r.get('engine') or ''] else 'earlier engine'}")
     return 0
 
 
