@@ -61,6 +61,7 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from rigsim.metrics.scene import scene_metrics, target_masks
+from rigsim.metrics.specks import has_particle_layer
 from rigsim.spectral_image import SPECTRAL_LAYERS
 from rigsim.spectrum import colour_groups
 
@@ -69,8 +70,8 @@ __all__ = ["RegionDeviation", "MetricDeviation", "CLEAR_WATERS", "MIN_CONTRAST",
            "cells_file_name", "CELL_COLUMNS", "PUBLISHED_TABLE", "tolerance_for", "comparison_regions",
            "compare_renders", "compare_to_cells", "fast_estimates", "FastEstimates", "moderated_relative_se",
            "MIN_MODERATED", "verdict", "noise_multiplier", "relative_se", "HEAVY_TAIL", "heavy_tailed", "case_key",
-           "target_tails", "mean_image", "has_particle_layer", "pooled_metric", "BEYOND_VISIBILITY",
-           "chart_beyond_visibility", "contrast_below_visibility", "judged", "pooled_patches", "PUBLISHED_COLUMNS", "read_published",
+           "target_tails", "mean_image", "pooled_metric", "BEYOND_VISIBILITY", "chart_beyond_visibility",
+           "contrast_below_visibility", "judged", "pooled_patches", "PUBLISHED_COLUMNS", "read_published",
            "restamp_published"]
 
 #: Waters in which the fast engine should agree within 3 % (Jerlov's oceanic types I–III and the
@@ -328,12 +329,6 @@ def _spectral_keys(image, *others) -> list[str]:
             and all(k in o.layers for o in others)]
 
 
-def has_particle_layer(image) -> bool:
-    """Whether a render carries the particles' light (its ``particles`` / ``flash_particles`` layer: the second,
-    particle-free pass of :func:`rigsim.render.render`), which a speck share is measured from."""
-    return "particles" in image.layers or "flash_particles" in image.layers
-
-
 def _with_spectra(first, radiance, layers: dict):
     """``first`` with its radiance and spectral layers replaced by ``radiance`` and ``layers`` (a spectral layer
     of its own not among them is dropped; the rest — object ids, range — kept)."""
@@ -438,7 +433,7 @@ def compare_renders(fast, references: list, target_kind: str, *, fast_batches: l
         with ``object_id`` (and ``backscatter`` for the share).
     references
         Monte Carlo renders of the same scene, size and bands, independent seeds (at least two).  With
-        marine snow the speck share is measured on those with the particles' layer (:func:`has_particle_layer`)
+        marine snow the speck share is measured on those with the particles' layer (:func:`rigsim.metrics.specks.has_particle_layer`)
         where not all have it (at least two; else it is not compared).
     target_kind
         The target's kind (which regions and contrast).

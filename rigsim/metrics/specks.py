@@ -32,7 +32,7 @@ import numpy as np
 
 from rigsim.metrics.scene import photopic_luminance
 
-__all__ = ["SPECK_THRESHOLD", "speck_metrics", "speck_numbers", "visible_specks", "subject_mask"]
+__all__ = ["SPECK_THRESHOLD", "speck_metrics", "speck_numbers", "visible_specks", "subject_mask", "has_particle_layer"]
 
 #: A particle counts as a visible speck where its light in a pixel is at least this × the subject's mean
 #: luminance.
@@ -95,11 +95,16 @@ def speck_numbers(luminance: np.ndarray, particles: np.ndarray, particle_id: np.
             "speck_threshold": float(threshold)}
 
 
+def has_particle_layer(image) -> bool:
+    """Whether an image carries the particles' light (its ``particles`` / ``flash_particles`` layer; in a Monte Carlo
+    render the difference from a second, particle-free pass of :func:`rigsim.render.render`)."""
+    return "particles" in image.layers or "flash_particles" in image.layers
+
+
 def speck_metrics(si, subject_mask: np.ndarray | None = None, *, threshold: float = SPECK_THRESHOLD) -> dict:
     """:func:`speck_numbers` of a SpectralImage: luminance of one flash plus 1 s of continuous light of the
     image and of its ``particles`` layer; zeros for an image without particles (no such layers)."""
-    has = ("particles" in si.layers or "flash_particles" in si.layers) and "particle_id" in si.layers
-    if not has:
+    if not (has_particle_layer(si) and "particle_id" in si.layers):
         return {"speck_count": 0, "speck_share": 0.0, "speck_share_subject": 0.0, "speck_light_share": 0.0,
                 "speck_threshold": float(threshold)}
     lum = photopic_luminance(si.radiant_exposure(1.0), si.wavelength_nm, si.bandwidth_nm)

@@ -248,7 +248,7 @@ def compute_check(spec: StudySpec, case: Case, render_cache=None) -> dict:
 
     mc_layers = ("object_id", "backscatter") + tuple(k for k in layers if k.startswith("particle"))
     keep = None if render_cache is None else cached_render_dir(render_cache, spec, case)
-    from rigsim.metrics.agreement import has_particle_layer
+    from rigsim.metrics.specks import has_particle_layer
     from rigsim.render.hybrid import DEFAULT_FIT_ORDER, hybrid_group
 
     group = hybrid_group(scene)

@@ -225,7 +225,8 @@ def test_a_speck_share_is_measured_on_the_renders_with_the_particles_light_alone
     mean, jackknife SE), the regions and the contrast on all of them; a mean image of renders that do not all
     carry a layer leaves it out (not the first render's own); with fewer than two such renders the speck share
     is not compared."""
-    from rigsim.metrics.agreement import compare_renders, has_particle_layer, mean_image, pooled_metric
+    from rigsim.metrics.agreement import compare_renders, mean_image, pooled_metric
+    from rigsim.metrics.specks import has_particle_layer
     from rigsim.spectral_image import SpectralImage
 
     wl = np.array([450.0, 550.0, 650.0])
