@@ -186,6 +186,7 @@ CHECK_ONLY_COMMITS: dict[str, str] = {
     "5f0421c": "the published line of a restamped row names both engines (text only)",
     "f09dcee": "marine snow checks: the particle-free pass for the pilot's renders alone (no benchmark water has "
                "particles; the fast engine unchanged)",
+    "3344b67": "the particles' layer test moved to rigsim.metrics.specks (no behaviour change)",
 }
 
 
