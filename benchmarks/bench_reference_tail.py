@@ -5,11 +5,11 @@ rendered by the renderer's own camera paths (:func:`rigsim.render.renderer.rende
 10 nm) with two sets of ``rigsim_vol`` options, in the same run, alternating chunks so that load from
 other processes hits both alike:
 
-* **before**: the light-directed share 0.4 at every vertex, Russian roulette from depth 5 (the options
-  until 2026-12-05);
+* **before**: ``--before`` (default: the light-directed share 0.4 at every vertex, Russian roulette from
+  depth 5, the options until 2026-12-05);
 * **after**: the integrator's defaults (:data:`rigsim.render.integrators.strobe.DEFAULT_LIGHT_DIRECTED_DEEP`
   from :data:`~rigsim.render.integrators.strobe.DEFAULT_LIGHT_DIRECTED_DEPTH`, roulette from
-  :data:`~rigsim.render.integrators.strobe.DEFAULT_RR_DEPTH`).
+  :data:`~rigsim.render.integrators.strobe.DEFAULT_RR_DEPTH`, ...) with ``--after``'s options over them.
 
 Over the image's pixels (``--region chart``: the chart's) it prints, for the image (``full``) and for the backscatter layer (``veil``,
 the AOV of the same paths): the mean (and the two means' difference over its standard error, from the
@@ -21,6 +21,8 @@ reference needs for the same noise.  Heavy tails make single runs erratic: use �
 
     python benchmarks/bench_reference_tail.py                       # 5 cases, ~45 min on 2 cores
     python benchmarks/bench_reference_tail.py --cases jerlov-9C:1 --paths 2000000
+    # one option against another (here the equiangular continuation share before 2026-12-07):
+    python benchmarks/bench_reference_tail.py --region chart --paths 8000000 --before equiangular_vertex=0.2
 
 Measured 2026-12-05 (2 cores, 12 000 000 paths per setting and case, 450 nm, every pixel;
 ``--cases jerlov-9C:1,jerlov-7C:3,jerlov-III:3``), relvar × time before / after, image and veil:
@@ -35,6 +37,12 @@ Measured 2026-12-05 (2 cores, 12 000 000 paths per setting and case, 450 nm, eve
   the time (longer paths before the roulette);
 * coastal-regions at 1 m (albedo ~0.1: the roulette still starts at depth 5; 3 000 000 paths): the same
   numbers and time (1.0×).
+
+Measured 2026-12-07, ``--region chart --paths 8000000 --before equiangular_vertex=0.2 --after
+equiangular_vertex=0.05`` (the share adopted that day; 35 min on 2 cores beside a niced benchmark), relvar × time
+before / after, image and veil: Jerlov 9C at 1 m 1.3× and 1.7×; 7C at 3 m 1.5× and 1.5×; 5C at 3 m 0.9× and
+1.1×; III at 3 m 2.0× and 1.3× (largest sample 0.55 → 0.23 % of the image's sum); coastal at 1 m 0.9× and 0.9×
+(the same relvar, 9 % more time); means after / before 0.983–1.006, |z| ≤ 1.31.
 
 With single-path probes over the chart alone (6 000 000 paths, 450 nm) the old options' relvar × time had been
 10–45× the new ones' in 9C at 1 m and 7C at 3 m: a heavy tail's sample variance grows with the sample, so a
@@ -76,15 +84,33 @@ def _stats(v: np.ndarray, spp: int) -> dict:
             "relvar": spp * len(v) * (v ** 2).sum() / tot ** 2}
 
 
+def parse_options(text: str) -> dict:
+    """``key=value,...`` -> rigsim_vol properties (ints, floats; ``BEFORE``: :data:`BEFORE`)."""
+    if text.strip() == "BEFORE":
+        return dict(BEFORE)
+    out = {}
+    for item in filter(None, (t.strip() for t in text.split(","))):
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise ValueError(f"{item!r} is not key=value")
+        try:
+            out[key.strip()] = int(value)
+        except ValueError:
+            out[key.strip()] = float(value)  # ValueError names the value
+    return out
+
+
 def run_case(water: str, distance_m: float, *, paths: int, spp: int, width: int, height: int,
-             wavelength_nm: float, region: str = "all") -> dict:
+             wavelength_nm: float, region: str = "all", before: dict | None = None,
+             after: dict | None = None) -> dict:
     rig = load_rig(ROOT / "rigs" / "twin-strobes-edge-lighting.toml")
     scene = build_scene(rig, preset(water), "colorchecker", distance_m,
                         size_m=0.4 * field_width_m(rig.camera, distance_m))
     strobes = [light for light in scene.lights if light.kind == "strobe"]
     ms = build_mitsuba_scene(scene, lights=strobes, mode="full", backscatter_aov=True)
-    settings = {"before": with_integrator(ms, {**integrator_dict("rigsim", backscatter_aov=True), **BEFORE}),
-                "after": with_integrator(ms, integrator_dict("rigsim", backscatter_aov=True))}
+    base = integrator_dict("rigsim", backscatter_aov=True)
+    settings = {"before": with_integrator(ms, {**base, **(BEFORE if before is None else before)}),
+                "after": with_integrator(ms, {**base, **(after or {})})}
     if region == "chart":  # the chart's pixels: the fast engine's object ids (no Monte Carlo needed for them)
         chart = np.asarray(render_preview(scene, width=width, height=height, wavelengths_nm=[wavelength_nm],
                                           multiple=False, layers=("object_id",)).layers["object_id"]) > 0
@@ -127,7 +153,16 @@ def main(argv=None) -> int:
     ap.add_argument("--wavelength", type=float, default=450.0, help="band centre, nm (10 nm wide)")
     ap.add_argument("--region", choices=("all", "chart"), default="all",
                     help="pixels whose samples are pooled: the whole image or the chart's")
+    ap.add_argument("--before", default="BEFORE",
+                    help="rigsim_vol options of the 'before' setting, key=value,... (default: BEFORE, the options "
+                         "until 2026-12-05)")
+    ap.add_argument("--after", default="",
+                    help="rigsim_vol options of the 'after' setting over the integrator's defaults, key=value,...")
     a = ap.parse_args(argv)
+    try:
+        before, after = parse_options(a.before), parse_options(a.after)
+    except ValueError as e:
+        ap.error(f"--before/--after: {e}")
     cases = []
     for c in a.cases.split(","):
         try:
@@ -144,12 +179,12 @@ def main(argv=None) -> int:
     if a.paths < 1 or a.spp < 1:
         ap.error("--paths and --spp must be >= 1")
     print(f"twin-strobes-edge-lighting, ColorChecker 0.4 of the field, {a.width}x{a.height}, {a.wavelength:g} nm; "
-          f"before = {BEFORE}, after = the integrator's defaults; pixels: {a.region}")
+          f"before = {before}, after = the integrator's defaults + {after}; pixels: {a.region}")
     print(f"{'case':>16s} {'part':>4s} {'setting':>7s} {'mean':>10s} {'top1':>7s} {'top100':>7s} {'relvar':>9s} "
           f"{'time s':>7s} {'relvar*t':>10s}")
     for w, d in cases:
         r = run_case(w, d, paths=a.paths, spp=a.spp, width=a.width, height=a.height, wavelength_nm=a.wavelength,
-                     region=a.region)
+                     region=a.region, before=before, after=after)
         for part in ("full", "veil"):
             eff = {}
             for k in ("before", "after"):

@@ -30,6 +30,7 @@ from rigsim.render.integrators import (
 )
 from rigsim.render.integrators.common import AureoleTable, PhaseAngleTable
 from rigsim.render.integrators.common import Segment as _Segment
+from rigsim.render.integrators.strobe import DEFAULT_EQUIANGULAR_VERTEX
 from rigsim.render.mitsuba_scene import build_mitsuba_scene, forget_scenes
 from rigsim.render.renderer import band_edges, render_pass
 from rigsim.render.variant import mitsuba
@@ -312,6 +313,15 @@ def test_fewer_deep_light_directed_directions_and_later_roulette_are_unbiased_pe
     roulette from ``DEFAULT_RR_DEPTH``) change only the noise: per-pixel Z-test at max_depth 8 against
     the options before (the share at every depth, roulette from depth 5), in coastal water (albedo 0.94)."""
     a, b = _pair(8, n=8, spp=512, reference=_BEFORE_DEEP_DEFAULTS)
+    z, z_mean = _ztest(a, b)
+    _assert_consistent(z, z_mean, 8)
+
+
+def test_smaller_equiangular_continuation_share_is_unbiased_per_pixel():
+    """The equiangular continuation share 0.05 (``DEFAULT_EQUIANGULAR_VERTEX``, 0.2 until 2026-12-07) changes
+    only the noise: per-pixel Z-test at max_depth 8 against the share 0.2, in coastal water (albedo 0.94)."""
+    assert DEFAULT_EQUIANGULAR_VERTEX != 0.2  # else this compares the integrator with itself
+    a, b = _pair(8, n=8, spp=512, reference={"equiangular_vertex": 0.2})
     z, z_mean = _ztest(a, b)
     _assert_consistent(z, z_mean, 8)
 

@@ -37,7 +37,7 @@ estimation), ``L_ind`` everything else.
   for every wavelength over the *whole* path (per-segment averaging bounds each
   segment's factor by ``4 albedo`` but lets the product grow as ``4ⁿ``; volpath's
   single-wavelength pdf bounds nothing).
-* **Continuation vertex** (``equiangular_vertex``, 0.2 after the first bounce, 0 on
+* **Continuation vertex** (``equiangular_vertex``, 0.05 after the first bounce, 0 on
   camera rays): the vertex the path continues from is drawn from the one-sample
   mixture of the distance sample and the equiangular samples, density
   ``(1 − ε) p_d(t) + ε/K Σ_k p_e,k(t)``.  A scattered ray that passes close to a light
@@ -234,8 +234,15 @@ DEFAULT_AUREOLE = 0.75
 #: bring a light's glow to every vertex): edge-lit ColorChecker at 3 m, 84×56, 6 × 64 paths, three
 #: seed sets, noise at the 99th percentile in the noisiest colour 0.73 → 0.56 (jerlov-II) and
 #: 0.21 → 0.15 (coastal-regions), +5 % time; close-to-port jerlov-II 3 m 0.26 → 0.17, coastal
-#: 3 m 0.076 → 0.063, clear 2 m unchanged.
-DEFAULT_EQUIANGULAR_VERTEX = 0.2
+#: 3 m 0.076 → 0.063, clear 2 m unchanged.  0.05 since 2026-12-07: a vertex drawn by distance weighs up to
+#: albedo / (1 − share), and in high-albedo water that factor compounds over the tens of vertices of a path
+#: (as the light-directed share's does, :data:`DEFAULT_LIGHT_DIRECTED_DEEP`); the light-directed directions and
+#: the halo estimates already bring a light's glow to every vertex.  ``benchmarks/bench_reference_tail.py
+#: --before equiangular_vertex=0.2`` (edge-lit chart, 450 nm, chart pixels, 8 000 000 paths each): relvar × time
+#: 0.2 / 0.05 = 1.3× and 1.7× (image, veil) in Jerlov 9C at 1 m, 1.5× and 1.5× in 7C at 3 m, 0.9× and 1.1× in 5C
+#: at 3 m, 2.0× and 1.3× in III at 3 m, 0.9× and 0.9× in coastal water at 1 m (albedo ~0.1: the same noise, a
+#: path 9 % dearer); means within 1.3 SE.  The turbid references are the ones that cost hours.
+DEFAULT_EQUIANGULAR_VERTEX = 0.05
 #: The same share on camera rays (they seldom pass close to a light; the distance technique
 #: alone keeps every camera sample that reaches a target).
 DEFAULT_EQUIANGULAR_VERTEX_CAMERA = 0.0
@@ -243,7 +250,8 @@ DEFAULT_EQUIANGULAR_VERTEX_CAMERA = 0.0
 #: draws (not what they estimate): kept renders are keyed by it and :func:`sampling_defaults`
 #: (:func:`rigsim.study.case.cached_render_dir`), so a study's reference does not mix renders of two samplers.
 #: 2: the light-directed share 0.2 from depth 4 and the roulette from the water's albedo (2026-12-05).
-SAMPLING_REVISION = 2
+#: 3: the equiangular continuation share 0.05 (was 0.2; 2026-12-07).
+SAMPLING_REVISION = 3
 #: The integrator's attributes that say how it draws samples (its Mitsuba properties, as read by ``__init__``).
 _SAMPLING_ATTRS = ("rr_depth", "rr_depth_max", "rr_threshold", "mis", "equiangular", "alpha", "cone", "cone_deep",
                    "cone_depth", "halo", "surface_halo", "target_nee", "aureole", "cont_eq", "cont_eq0")
