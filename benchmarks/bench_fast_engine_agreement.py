@@ -61,6 +61,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import functools
 import math
 import os
 import shlex
@@ -211,18 +212,20 @@ def _same_engine(commit: str) -> bool:
         return False
 
 
+@functools.lru_cache(maxsize=None)
+def _engine_is_current(engine: str) -> bool:
+    """Whether a published row's ``engine`` ("commit 692f13b") is this checkout's fast engine (:func:`_same_engine`;
+    blank, from before the column, and "-dirty" never are)."""
+    return bool(engine) and not engine.endswith("-dirty") and _same_engine(engine.removeprefix("commit "))
+
+
 def print_status(path: Path = PUBLISHED) -> int:
     """The published table as it stands: its rows, cells and cells beyond tolerance + t*SE by the fast engine
     that measured them — this checkout's (a commit since which the engine did not change) or an earlier one —
     and the rows of earlier engines, which a change of the engine left to be made again."""
     with open(path, newline="") as fh:
         rows = list(csv.DictReader(ln for ln in fh if not ln.startswith("#")))
-    same: dict[str, bool] = {}
-    for r in rows:
-        e = r.get("engine") or ""
-        if e not in same:
-            commit = e.removeprefix("commit ")
-            same[e] = bool(e) and not e.endswith("-dirty") and _same_engine(commit)
+    same = {e: _engine_is_current(e) for e in {r.get("engine") or "" for r in rows}}
     n = lambda rs, k: sum(int(r.get(k) or 0) for r in rs)  # noqa: E731
     over = lambda rs: sum(abs(float(r["worst_deviation"])) > float(r["tolerance"]) for r in rs)  # noqa: E731
     cur = [r for r in rows if same[r.get("engine") or ""]]
@@ -246,8 +249,14 @@ def print_status(path: Path = PUBLISHED) -> int:
     print(f"  earlier engines (blank: before the column, 2026-12-06): {len(old)} rows, {n(old, 'cells')} cells, "
           f"{n(old, 'beyond')} beyond; to make again:")
     groups: dict[tuple[str, str], list[str]] = defaultdict(list)
+    remade: dict[tuple[str, str, str], set[float]] = defaultdict(set)  # distances this engine has re-made
+    for r in cur:
+        remade[(r["lighting"], r["rig"], r["water"])] |= {float(x) for x in r["distances_m"].split(",") if x.strip()}
     for r in old:
-        groups[(r["lighting"], r["rig"])].append(f"{r['water']} ({r['distances_m']} m)")
+        done = sorted(d for d in remade[(r["lighting"], r["rig"], r["water"])]
+                      if d in {float(x) for x in r["distances_m"].split(",") if x.strip()})
+        part = f"; {', '.join(f'{d:g}' for d in done)} m re-made" if done else ""
+        groups[(r["lighting"], r["rig"])].append(f"{r['water']} ({r['distances_m']} m{part})")
     for (light, rig), ws in sorted(groups.items()):
         print(f"    {light:<14} {rig:<28} {'; '.join(ws)}")
     beyond_bare = sorted((r for r in rows if abs(float(r["worst_deviation"])) > float(r["tolerance"])),
@@ -439,8 +448,10 @@ def main(argv=None) -> int:
                         f"daylight: ambient-only at {depths} m, sun at 30 deg" if depths else "") if x)
         command = "python benchmarks/bench_fast_engine_agreement.py " + " ".join(
             shlex.quote(a) for a in (sys.argv[1:] if argv is None else argv))
+        # a row of an earlier engine goes once this engine's rows cover its distances (a run per distance can
+        # re-make it piece by piece)
         write_published(rows, PUBLISHED, settings=settings, engine=_engine_id(), cells_dir=CELLS,
-                        cells_header=command)
+                        cells_header=command, current=lambda r: _engine_is_current(r.get("engine") or ""))
         print(f"\nper-water summary: {PUBLISHED}; each row's cells: {CELLS}")
     return 0
 

@@ -56,6 +56,7 @@ from __future__ import annotations
 import dataclasses
 import math
 import re
+from collections.abc import Callable
 from dataclasses import asdict, dataclass
 
 import numpy as np
@@ -776,7 +777,7 @@ def read_cells(path) -> list[dict]:
 
 
 def write_published(rows: list[dict], path, *, settings: str, engine: str = "", cells_dir=None,
-                    cells_header: str = "") -> None:
+                    cells_header: str = "", current: Callable[[dict], bool] | None = None) -> None:
     """Write the per-lighting, per-water, per-rig, per-distance-set summary of agreement rows (``agreement.csv``
     of studies, plus a ``lighting`` column; ``cells`` counts the judged cells, ``beyond_visibility`` the chart cells
     of cases beyond the chart's visibility, left out of ``worst_*`` and ``beyond``; blank in rows from before
@@ -790,7 +791,12 @@ def write_published(rows: list[dict], path, *, settings: str, engine: str = "", 
     ``cells_dir``: also write each new row's every cell there (:func:`write_cells`, :func:`cells_file_name`;
     ``cells_header`` says what made them) and remove the cells of the rows it supersedes: the table's numbers
     with what they came from, cell by cell (the fast and reference values, each one's standard error, the
-    reference's tail), which a later change of the fast engine can be judged against."""
+    reference's tail), which a later change of the fast engine can be judged against.
+
+    ``current``: which rows already in the table are the measuring engine's own (the benchmark's test of a row's
+    ``engine``).  A row that is not (an earlier engine's) is also dropped once the new row and the table's current
+    rows of the same lighting, water and rig cover its distances between them: a stale row can then be re-made one
+    distance at a time, each run short enough to finish, and goes when its last distance is in."""
     import datetime
     from collections import defaultdict
     from pathlib import Path
@@ -808,8 +814,12 @@ def write_published(rows: list[dict], path, *, settings: str, engine: str = "", 
         cases = {(r["rig"], r["target"], float(r["distance_m"])) for r in every}
         dist = ", ".join(f"{d:g}" for d in sorted({c[2] for c in cases}))
         covered = {c[2] for c in cases}
-        for key in [k for k in old if k[:3] == (light, water, rig) and _distance_set(k[3]) <= covered]:
-            del old[key]  # superseded: its distances are all in the new row
+        fresh = covered | {d for k, r in old.items() if k[:3] == (light, water, rig) and current is not None
+                           and current(r) for d in _distance_set(k[3])}
+        for key in [k for k in old if k[:3] == (light, water, rig) and (
+                _distance_set(k[3]) <= covered or
+                (current is not None and not current(old[k]) and _distance_set(k[3]) <= fresh))]:
+            del old[key]  # superseded: its distances are all in the new row (or, an earlier engine's, re-made)
             if cells_dir is not None:
                 (Path(cells_dir) / cells_file_name(*key)).unlink(missing_ok=True)
         if cells_dir is not None:

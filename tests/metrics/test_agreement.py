@@ -318,6 +318,45 @@ def test_the_published_table_keeps_each_rig_apart_and_a_rig_it_did_not_check_get
     assert published_agreement("jerlov-9C", rig="wide").distances_m == "1, 3, 6"
 
 
+def test_a_row_of_an_earlier_engine_goes_once_this_engines_rows_cover_its_distances(tmp_path):
+    """``write_published(..., current=...)``: an earlier engine's row stays while only some of its distances are
+    re-made (one run per distance), and goes with the run that brings its last; another stale row of the same rig
+    is not dropped by the rows that cover the first, nor is a current row covered only in part."""
+    from rigsim.metrics.agreement import read_published, write_published
+
+    path = tmp_path / "agreement.csv"
+    header = ("lighting,water,rig,cases,distances_m,worst_deviation,worst_se,worst_where,tolerance,beyond,cells,"
+              "measured,engine,settings\n")
+    old = lambda dist: f'strobes,jerlov-7C,wide,4,"{dist}",-0.2,0.1,x,0.05,0,100,2026-12-06,commit old,s\n'  # noqa: E731
+    path.write_text(header + old("0.5, 1, 3, 6") + old("0.5, 6").replace(",wide,", ",edge,")
+                    + old("1, 3").replace(",wide,", ",edge,"))
+    is_new = lambda r: r["engine"] == "commit new"  # noqa: E731
+
+    def publish(rig, *dists):
+        write_published([_row(rig, "jerlov-7C", "disk", 0.01, distance=d) for d in dists], path, settings="t",
+                        engine="commit new", current=is_new)
+        return {(k[2], k[3]): r["engine"] for k, r in read_published(path).items()}
+
+    assert publish("wide", 3.0)[("wide", "0.5, 1, 3, 6")] == "commit old"  # 0.5, 1 and 6 m still the old one's
+    assert ("wide", "0.5, 1, 3, 6") in publish("wide", 0.5, 1.0)
+    got = publish("wide", 6.0)
+    assert ("wide", "0.5, 1, 3, 6") not in got  # its last distance re-made: gone
+    assert {k for k, e in got.items() if k[0] == "wide"} == {("wide", "3"), ("wide", "0.5, 1"), ("wide", "6")}
+    # the edge rig: 3 m re-made covers neither stale row (the other stale row does not count)
+    got = publish("edge", 3.0)
+    assert got[("edge", "0.5, 6")] == "commit old" and got[("edge", "1, 3")] == "commit old"
+    got = publish("edge", 1.0)
+    assert ("edge", "1, 3") not in got and got[("edge", "0.5, 6")] == "commit old"
+    # a current row covered in part by a new one stays (only a row all of whose distances are in it goes)
+    assert ("wide", "0.5, 1") in publish("wide", 1.0)
+    # without ``current``: as before, only a row all of whose distances are in the new one goes
+    path.write_text(header + old("0.5, 1, 3, 6"))
+    write_published([_row("wide", "jerlov-7C", "disk", 0.01, distance=d) for d in (0.5, 1.0, 3.0)], path,
+                    settings="t", engine="commit new")
+    write_published([_row("wide", "jerlov-7C", "disk", 0.01, distance=6.0)], path, settings="t", engine="commit new")
+    assert ("strobes", "jerlov-7C", "wide", "0.5, 1, 3, 6") in read_published(path)
+
+
 def test_the_published_table_says_which_fast_engine_each_row_measured(tmp_path, monkeypatch):
     """A row written with ``engine`` reads it back as written (the benchmark's "commit <hash>": text even where
     the hash is all digits, its leading zero kept) and its sentence names it; rows written before the column
@@ -363,10 +402,11 @@ def test_the_benchmark_status_lists_the_rows_an_earlier_fast_engine_measured(tmp
     path = tmp_path / "agreement.csv"
     path.write_text("# a comment line\n" + header + row("jerlov-9C", f"commit {head}", -0.02, 0)
                     + row("jerlov-7C", f"commit {first[0][:7]}", 0.08, 1) + row("jerlov-5C", f"commit {head}-dirty", 0.01, 0)
-                    + row("jerlov-3C", "", -0.06, 0))
+                    + row("jerlov-3C", "", -0.06, 0)
+                    + row("jerlov-7C", f"commit {head}", 0.01, 0).replace('"1, 3"', '"3"'))  # 3 m of 7C re-made
     assert bench.print_status(path) == 0
     out = capsys.readouterr().out
-    assert f"{path}: 4 rows, 400 cells, 1 beyond tolerance + t*SE; 2 rows whose worst cell is beyond" in out
+    assert f"{path}: 5 rows, 500 cells, 1 beyond tolerance + t*SE; 2 rows whose worst cell is beyond" in out
     earlier = out.split("earlier engines")[1].split("beyond its bare tolerance")[0]
     assert "jerlov-7C (1, 3 m)" in earlier and "jerlov-5C" in earlier and "jerlov-3C" in earlier
     worst = out.split("beyond its bare tolerance, largest first")[1].splitlines()[1:]
@@ -375,7 +415,8 @@ def test_the_benchmark_status_lists_the_rows_an_earlier_fast_engine_measured(tmp
     clean = git("diff", "--quiet", "HEAD", "--", *bench.ENGINE_PATHS).returncode == 0
     assert ("jerlov-9C" not in earlier) == clean
     if clean:
-        assert f"this checkout's fast engine (measured at {head}): 1 rows, 100 cells, 0 beyond" in out
+        assert f"this checkout's fast engine (measured at {head}): 2 rows, 200 cells, 0 beyond" in out
+        assert "jerlov-7C (1, 3 m; 3 m re-made)" in earlier  # the stale row says which of its distances are in
 
 
 def test_the_published_line_says_when_the_reference_is_too_noisy_to_show_agreement():
