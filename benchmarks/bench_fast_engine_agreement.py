@@ -45,7 +45,10 @@ the fast engine against the same references.  Rows published before 2026-12-07 h
 still on disk then (14 of 118).  ``--rejudge`` makes each such row's fast images again with this checkout (the same
 study settings and seeds: :func:`rigsim.study.case.fast_check_images`) and compares them with the kept reference numbers
 (:func:`rigsim.metrics.agreement.compare_to_cells`): about 1.5 min per row on 2 cores, and it prints how far the fast
-values moved (0.00 % for an unchanged engine: Jerlov II 45-wide, 2026-12-07, 324 cells).
+values moved (0.00 % for an unchanged engine: Jerlov II 45-wide, 2026-12-07, 324 cells).  A row of an earlier engine
+can be made again one distance at a time (``--distances 3``, each run published as it ends: a turbid row's hybrid
+references cost hours, and a run cut off loses what it had not published); the earlier row goes with the run that
+brings its last distance (``write_published``'s ``current``), and ``--status`` says which of its distances are in.
 
 ``--reference hybrid``: the chart cases lit by strobes or by continuous lights are referenced by hybrid images
 instead (:mod:`rigsim.render.hybrid`: the renders' veil plus the chart's light traced from the lights and seen
