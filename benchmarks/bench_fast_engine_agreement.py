@@ -255,11 +255,11 @@ def print_status(path: Path = PUBLISHED) -> int:
           f"{n(old, 'beyond')} beyond; to make again:")
     groups: dict[tuple[str, str], list[str]] = defaultdict(list)
     remade: dict[tuple[str, str, str], set[float]] = defaultdict(set)  # distances this engine has re-made
+    dists = lambda r: {float(x) for x in r["distances_m"].split(",") if x.strip()}  # noqa: E731
     for r in cur:
-        remade[(r["lighting"], r["rig"], r["water"])] |= {float(x) for x in r["distances_m"].split(",") if x.strip()}
+        remade[(r["lighting"], r["rig"], r["water"])] |= dists(r)
     for r in old:
-        done = sorted(d for d in remade[(r["lighting"], r["rig"], r["water"])]
-                      if d in {float(x) for x in r["distances_m"].split(",") if x.strip()})
+        done = sorted(remade[(r["lighting"], r["rig"], r["water"])] & dists(r))
         part = f"; {', '.join(f'{d:g}' for d in done)} m re-made" if done else ""
         groups[(r["lighting"], r["rig"])].append(f"{r['water']} ({r['distances_m']} m{part})")
     for (light, rig), ws in sorted(groups.items()):
