@@ -29,6 +29,8 @@ engines are listed (verdict "beyond visibility", the published table's ``beyond_
                                                                   # cells of the published rows (fast images only)
     python benchmarks/bench_fast_engine_agreement.py --verify-unchanged --publish   # rows of earlier engines whose
                                                                   # fast images this checkout makes bit for bit
+    python benchmarks/bench_fast_engine_agreement.py --remake --hours 3   # rows of earlier engines made again, one
+                                                                  # distance per run, each published as it ends
 
 Each Monte Carlo render is kept as it finishes (``<out>/<lighting>/mc-renders``, keyed by the scene's contents, seed,
 bands and render settings, the renderer's default sampling options among them — not by where the checkout is, nor by
@@ -275,6 +277,131 @@ def print_status(path: Path = PUBLISHED) -> int:
     return 0
 
 
+#: The settings a row of an earlier engine is made again with (``--remake``): the strobe rows' hybrid command and the
+#: daylight rows' command of the README (what the table's current rows were measured with).
+REMAKE_STROBES = ("--depths", "", "--spp", "32", "--seeds", "4", "--max-seeds", "32", "--hybrid-max-seeds", "8",
+                  "--reference", "hybrid", "--hybrid-photons", "2000000", "--hybrid-spp", "128")
+REMAKE_DAYLIGHT = ("--rigs", "", "--daylight-target-se", "0.0075")
+
+
+def remake_plan(table: dict, current) -> list[tuple[str, str, str, float]]:
+    """What ``--remake`` runs: ``(lighting, rig, water, distance_m)`` for each distance of each row of an earlier
+    engine (``current(row)`` false) that no row of this engine covers yet — the rows whose worst cell is beyond its
+    bare tolerance first (largest first: what keeps the table from its tolerances), then the clear waters' before
+    the turbid ones' (tolerance 3 % before 5 %, the table's order within), each row's distances in its order.
+    ``table``: :func:`rigsim.metrics.agreement.read_published`."""
+    def dists(r) -> list[float]:
+        return [float(x) for x in r["distances_m"].split(",") if x.strip()]
+
+    covered: dict[tuple[str, str, str], set[float]] = defaultdict(set)
+    for r in table.values():
+        if current(r):
+            covered[(r["lighting"], r["rig"], r["water"])] |= set(dists(r))
+    stale = [r for r in table.values() if not current(r)]
+
+    def order(r):
+        worst, tol = abs(float(r["worst_deviation"] or 0)), float(r["tolerance"] or 0.05)
+        return (0, -worst) if worst > tol else (1, tol)
+
+    plan: list[tuple[str, str, str, float]] = []
+    for r in sorted(stale, key=order):
+        key = (r["lighting"], r["rig"], r["water"])
+        plan += [(*key, d) for d in dists(r) if d not in covered[key] and (*key, d) not in plan]
+    return plan
+
+
+def remake_command(item: tuple[str, str, str, float], out: Path) -> list[str]:
+    """The benchmark's arguments that make ``item`` (:func:`remake_plan`) again and publish it, renders kept in
+    ``out``/<lighting>__<water>__<rig> (a run cut off and started again renders only what it lacks)."""
+    lighting, rig, water, d = item
+    folder = out / f"{lighting}__{water}__{rig}"
+    common = ["--waters", water, "--distances", f"{d:g}", "--publish", "--out", str(folder)]
+    if lighting == "strobes":
+        return ["--rigs", rig, *REMAKE_STROBES, *common]
+    if lighting.startswith("daylight-") and lighting.endswith("m"):
+        return [*REMAKE_DAYLIGHT, "--depths", lighting.removeprefix("daylight-").removesuffix("m"), *common]
+    raise ValueError(f"{lighting!r}: not a lighting this benchmark makes (strobes, daylight-<depth>m)")
+
+
+def remake(out: Path, *, hours: float | None, dry_run: bool, waters: set | None, rigs: set | None) -> int:
+    """``--remake``: the rows of earlier engines made again with this checkout, one distance per run of this script
+    (a child process; :func:`remake_plan`'s order), each published as it ends, until none is left or ``hours`` have
+    passed (no run starts after that; the one running ends).  The plan is read again from the table before every run,
+    so a run started again (after a kill, on another day) goes on where the table stands; a distance whose run
+    failed is not tried again in the same invocation.  Each run's output goes to ``out``/<item>.log; a line per run
+    here.  Returns 0 when the plan is done or the time is up, 1 if a run failed or the checkout's engine has
+    uncommitted edits (its rows could never count as this engine's)."""
+    import subprocess
+
+    from rigsim.metrics.agreement import read_published
+
+    engine = _engine_id()
+    if not dry_run and (not engine or engine.endswith("-dirty")):
+        print(f"this checkout's engine is {engine or 'unknown (no git)'}: commit it before --remake (its rows would "
+              "never count as this engine's)", file=sys.stderr)
+        return 1
+
+    def plan() -> list:
+        table = read_published(PUBLISHED)
+        return [it for it in remake_plan(table, lambda r: _engine_is_current(r.get("engine") or ""))
+                if (waters is None or it[2] in waters) and (rigs is None or it[1] in rigs)]
+
+    todo = plan()
+    print(f"{len(todo)} distances of rows of earlier engines to make again"
+          + (f" (only --waters / --rigs given)" if waters is not None or rigs is not None else ""), flush=True)
+    if dry_run:
+        for it in todo:
+            print(f"  {it[0]:<13} {it[1]:<28} {it[2]:<17} {it[3]:g} m:  python benchmarks/bench_fast_engine_agreement.py "
+                  + " ".join(shlex.quote(a) for a in remake_command(it, out)))
+        return 0
+    out.mkdir(parents=True, exist_ok=True)
+    t0, failed, tried = time.monotonic(), 0, set()
+    child: list[subprocess.Popen] = []
+
+    def on_term(signum, frame):  # a kill of this process ends the running child too (its renders are kept)
+        for c in child:
+            c.terminate()
+        raise KeyboardInterrupt
+
+    old_term = signal.signal(signal.SIGTERM, on_term)
+    try:
+        while True:
+            todo = [it for it in plan() if it not in tried]
+            if not todo:
+                print(f"done: nothing left to make again ({failed} runs failed)" if failed else
+                      "done: nothing left to make again", flush=True)
+                break
+            if hours is not None and time.monotonic() - t0 > 3600 * hours:
+                print(f"--hours {hours:g} passed: {len(todo)} distances left (run the same command again)", flush=True)
+                break
+            it = todo[0]
+            tried.add(it)
+            args = remake_command(it, out)
+            log_path = out / f"{it[0]}__{it[2]}__{it[1]}__{it[3]:g}.log"
+            t = time.monotonic()
+            print(f"[{time.strftime('%H:%M')}] {it[0]} {it[1]} {it[2]} {it[3]:g} m ({len(todo)} left) ...", flush=True)
+            with open(log_path, "w") as log:
+                p = subprocess.Popen([sys.executable, str(Path(__file__).resolve()), *args], stdout=log,
+                                     stderr=subprocess.STDOUT, cwd=ROOT)
+                child[:] = [p]
+                rc = p.wait()
+                child.clear()
+            row = next((r for r in read_published(PUBLISHED).values()
+                        if (r["lighting"], r["rig"], r["water"]) == it[:3] and r["distances_m"] == f"{it[3]:g}"
+                        and _engine_is_current(r.get("engine") or "")), None)
+            said = (f"worst {100 * float(row['worst_deviation']):+.1f} ± {100 * float(row['worst_se']):.1f} % "
+                    f"({row['worst_where']}), {row['beyond']} of {row['cells']} beyond" if rc == 0 and row else
+                    f"failed (exit {rc}): {log_path}")
+            failed += rc != 0 or row is None
+            print(f"    {(time.monotonic() - t) / 60:.0f} min: {said}", flush=True)
+    except KeyboardInterrupt:
+        print("interrupted: what was published stays; the same command goes on from there", file=sys.stderr)
+        return 130
+    finally:
+        signal.signal(signal.SIGTERM, old_term)
+    return 1 if failed else 0
+
+
 def main(argv=None) -> int:
     from rigsim.water import JERLOV_TYPES, ORIGINAL_PRESETS
 
@@ -348,13 +475,31 @@ def main(argv=None) -> int:
                          "rows in 15 min on 2 cores); with --publish such rows are stamped as this engine's")
     ap.add_argument("--publish", action="store_true",
                     help=f"write the per-water summary to {PUBLISHED.relative_to(ROOT)} (the rig designer shows it)")
+    ap.add_argument("--remake", action="store_true",
+                    help="make the rows of earlier engines (--status) again with this checkout, one distance per run, "
+                         "each published as it ends (rows beyond their tolerance first; the settings of the README's "
+                         "hybrid and daylight commands; renders kept in <--out>/remake; --waters / --rigs select rows "
+                         "when given).  Started again, it goes on where the table stands.  The checkout must be "
+                         "committed and stay as it is while it runs (a git worktree of it if you keep working)")
+    ap.add_argument("--dry-run", action="store_true", help="with --remake: print what it would run, run nothing")
+    ap.add_argument("--hours", type=float, default=None,
+                    help="with --remake: start no run after this many hours (the one running ends)")
     args = ap.parse_args(argv)
+    if (args.dry_run or args.hours is not None) and not args.remake:
+        ap.error("--dry-run and --hours go with --remake")
+    if args.hours is not None and not (math.isfinite(args.hours) and args.hours > 0):
+        ap.error(f"--hours must be > 0, got {args.hours:g}")
     if args.status:
         return print_status()
     def picked(name: str) -> set | None:  # the rows asked for: all unless the option was given
         value = getattr(args, name)
         return set(_list(value)) if value != ap.get_default(name) else None
 
+    if args.remake:
+        if args.rejudge or args.verify_unchanged or args.publish:
+            ap.error("--remake runs alone (its runs publish)")
+        return remake(args.out / "remake", hours=args.hours, dry_run=args.dry_run, waters=picked("waters"),
+                      rigs=picked("rigs"))
     if args.rejudge and args.verify_unchanged:
         ap.error("--rejudge and --verify-unchanged: one at a time")
     if args.rejudge:

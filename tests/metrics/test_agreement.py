@@ -820,3 +820,93 @@ def test_a_snapshot_is_of_the_rows_study_and_of_the_checkouts_own_package(tmp_pa
         snap._study_text(root, dict(row, settings="Monte Carlo only"))
     with pytest.raises(SystemExit, match="PYTHONPATH"):
         snap.snapshot(tmp_path, [row], tmp_path / "out")
+
+
+def _bench_module(name: str):
+    import importlib.util
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[2]
+    spec = importlib.util.spec_from_file_location(name, root / "benchmarks" / "bench_fast_engine_agreement.py")
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    return bench
+
+
+def _table_row(lighting, water, rig, distances, dev, engine, tol=0.05):
+    return {"lighting": lighting, "water": water, "rig": rig, "distances_m": distances, "worst_deviation": str(dev),
+            "worst_se": "0.01", "worst_where": "x", "tolerance": str(tol), "beyond": "0", "cells": "10",
+            "engine": engine}
+
+
+def test_remake_plans_the_distances_no_current_row_covers_rows_beyond_their_tolerance_first():
+    """``--remake``'s plan: each distance of a row of an earlier engine that this engine's rows do not cover; the rows
+    whose worst cell is beyond the bare tolerance first (largest first), then the 3 % waters, then the rest; a current
+    row (beyond or not) is not in it; daylight rows get the daylight command, strobe rows the hybrid one."""
+    bench = _bench_module("bench_agreement_remake")
+    rows = [_table_row("strobes", "coastal", "edge", "0.5, 1, 3, 6", -0.04, "commit old"),      # within: last
+            _table_row("strobes", "jerlov-7C", "edge", "0.5, 1, 3, 6", -0.23, "commit old"),    # beyond, largest
+            _table_row("strobes", "jerlov-7C", "edge", "1", 0.01, "commit new"),                # 1 m re-made
+            _table_row("strobes", "jerlov-1C", "wide", "1, 3", 0.06, "commit old"),             # beyond
+            _table_row("strobes", "clear", "port", "3", 0.01, "commit old", tol=0.03),          # within, 3 %
+            _table_row("daylight-5m", "jerlov-II", "ambient-only", "6", 0.0, ""),               # blank engine
+            _table_row("strobes", "jerlov-III", "edge", "0.5, 3", -0.15, "commit new", tol=0.03)]  # current
+    table = {(r["lighting"], r["water"], r["rig"], r["distances_m"]): r for r in rows}
+    plan = bench.remake_plan(table, lambda r: r["engine"] == "commit new")
+    assert plan == [("strobes", "edge", "jerlov-7C", 0.5), ("strobes", "edge", "jerlov-7C", 3.0),
+                    ("strobes", "edge", "jerlov-7C", 6.0), ("strobes", "wide", "jerlov-1C", 1.0),
+                    ("strobes", "wide", "jerlov-1C", 3.0), ("strobes", "port", "clear", 3.0),
+                    ("strobes", "edge", "coastal", 0.5), ("strobes", "edge", "coastal", 1.0),
+                    ("strobes", "edge", "coastal", 3.0), ("strobes", "edge", "coastal", 6.0),
+                    ("daylight-5m", "ambient-only", "jerlov-II", 6.0)]
+    from pathlib import Path
+    cmd = bench.remake_command(plan[0], Path("/o"))
+    assert cmd[:2] == ["--rigs", "edge"] and "hybrid" in cmd and cmd[cmd.index("--distances") + 1] == "0.5"
+    assert cmd[cmd.index("--out") + 1] == "/o/strobes__jerlov-7C__edge" and "--publish" in cmd
+    day = bench.remake_command(plan[-1], Path("/o"))
+    assert day[day.index("--rigs") + 1] == "" and day[day.index("--depths") + 1] == "5" and "hybrid" not in day
+    with pytest.raises(ValueError):
+        bench.remake_command(("flash-only", "x", "y", 1.0), Path("/o"))
+
+
+def test_remake_runs_each_distance_once_and_goes_on_where_the_table_stands(tmp_path, monkeypatch, capsys):
+    """The ``--remake`` loop: the plan read again before every run (a run that published drops out of it), a failed
+    run not tried again in the same invocation (exit 1 at the end), nothing started on uncommitted engine code."""
+    from rigsim.metrics.agreement import _write_published_table, read_published
+
+    bench = _bench_module("bench_agreement_remake2")
+    path = tmp_path / "agreement.csv"
+    rows = [_table_row("strobes", "coastal", "edge", "1, 3", 0.01, "commit old")]
+    _write_published_table(path, {(r["lighting"], r["water"], r["rig"], r["distances_m"]): r for r in rows})
+    monkeypatch.setattr(bench, "PUBLISHED", path)
+    monkeypatch.setattr(bench, "_engine_is_current", lambda e: e == "commit new")
+    monkeypatch.setattr(bench, "_engine_id", lambda: "commit new-dirty")
+    assert bench.remake(tmp_path / "out", hours=None, dry_run=False, waters=None, rigs=None) == 1
+    assert "commit it before --remake" in capsys.readouterr().err
+    monkeypatch.setattr(bench, "_engine_id", lambda: "commit new")
+    runs = []
+
+    class FakeRun:  # the child: 1 m publishes a current row, 3 m fails
+        def __init__(self, argv, **kw):
+            d = argv[argv.index("--distances") + 1]
+            runs.append(d)
+            self.rc = 0 if d == "1" else 1
+            if d == "1":
+                t = read_published(path)
+                r = _table_row("strobes", "coastal", "edge", "1", 0.02, "commit new")
+                t[(r["lighting"], r["water"], r["rig"], r["distances_m"])] = r
+                _write_published_table(path, t)
+
+        def wait(self):
+            return self.rc
+
+    monkeypatch.setattr("subprocess.Popen", FakeRun)
+    assert bench.remake(tmp_path / "out", hours=None, dry_run=False, waters=None, rigs=None) == 1
+    out = capsys.readouterr().out
+    assert runs == ["1", "3"]  # each once: 1 m left the plan by publishing, 3 m failed and is not tried again
+    assert "worst +2.0 ± 1.0 %" in out and "failed (exit 1)" in out and "done: nothing left" in out
+    runs.clear()
+    assert bench.remake(tmp_path / "out", hours=None, dry_run=True, waters=None, rigs=None) == 0
+    assert runs == [] and "1 distances of rows of earlier engines" in capsys.readouterr().out
+    assert bench.remake(tmp_path / "out", hours=None, dry_run=False, waters={"clear"}, rigs=None) == 0
+    assert runs == []  # nothing of that water to make
