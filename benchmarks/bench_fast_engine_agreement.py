@@ -142,14 +142,15 @@ def _fraction(text: str) -> float:
 
 
 def _engine_id() -> str:
-    """The checkout's commit ("commit 692f13b", "-dirty" if ``rigsim/`` differs from it); "" without git."""
+    """The checkout's commit ("commit 692f13b", "-dirty" if anything of :data:`ENGINE_PATHS` differs from it: the
+    package, its data, the rigs); "" without git."""
     import subprocess
 
     try:
         head = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
                               text=True, timeout=30, check=True).stdout.strip()
-        dirty = subprocess.run(["git", "-C", str(ROOT), "status", "--porcelain", "--", "rigsim"], capture_output=True,
-                               text=True, timeout=30, check=True).stdout.strip()
+        dirty = subprocess.run(["git", "-C", str(ROOT), "status", "--porcelain", "--", *ENGINE_PATHS],
+                               capture_output=True, text=True, timeout=30, check=True).stdout.strip()
     except (OSError, subprocess.SubprocessError):
         return ""
     return f"commit {head}{'-dirty' if dirty else ''}" if head else ""
