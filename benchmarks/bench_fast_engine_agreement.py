@@ -349,7 +349,7 @@ def remake(out: Path, *, hours: float | None, dry_run: bool, waters: set | None,
 
     todo = plan()
     print(f"{len(todo)} distances of rows of earlier engines to make again"
-          + (f" (only --waters / --rigs given)" if waters is not None or rigs is not None else ""), flush=True)
+          + (" (only --waters / --rigs given)" if waters is not None or rigs is not None else ""), flush=True)
     if dry_run:
         for it in todo:
             print(f"  {it[0]:<13} {it[1]:<28} {it[2]:<17} {it[3]:g} m:  python benchmarks/bench_fast_engine_agreement.py "
@@ -392,7 +392,8 @@ def remake(out: Path, *, hours: float | None, dry_run: bool, waters: set | None,
                         and _engine_is_current(r.get("engine") or "")), None)
             said = (f"worst {100 * float(row['worst_deviation']):+.1f} ± {100 * float(row['worst_se']):.1f} % "
                     f"({row['worst_where']}), {row['beyond']} of {row['cells']} beyond" if rc == 0 and row else
-                    f"failed (exit {rc}): {log_path}")
+                    f"failed (exit {rc}): {log_path}" if rc != 0 else
+                    f"ended, but no row of this engine for it is in the table: {log_path}")
             failed += rc != 0 or row is None
             print(f"    {(time.monotonic() - t) / 60:.0f} min: {said}", flush=True)
     except KeyboardInterrupt:
