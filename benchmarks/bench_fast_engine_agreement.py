@@ -257,8 +257,10 @@ def print_status(path: Path = PUBLISHED) -> int:
     print(f"  earlier engines (blank: before the column, 2026-12-06): {len(old)} rows, {n(old, 'cells')} cells, "
           f"{n(old, 'beyond')} beyond; to make again:")
     groups: dict[tuple[str, str], list[str]] = defaultdict(list)
+    from rigsim.metrics.agreement import distance_set
+
     remade: dict[tuple[str, str, str], set[float]] = defaultdict(set)  # distances this engine has re-made
-    dists = lambda r: {float(x) for x in r["distances_m"].split(",") if x.strip()}  # noqa: E731
+    dists = lambda r: distance_set(r["distances_m"])  # noqa: E731
     for r in cur:
         remade[(r["lighting"], r["rig"], r["water"])] |= dists(r)
     for r in old:
@@ -291,8 +293,10 @@ def remake_plan(table: dict, current) -> list[tuple[str, str, str, float]]:
     bare tolerance first (largest first: what keeps the table from its tolerances), then the clear waters' before
     the turbid ones' (tolerance 3 % before 5 %, the table's order within), each row's distances in its order.
     ``table``: :func:`rigsim.metrics.agreement.read_published`."""
+    from rigsim.metrics.agreement import distance_set
+
     def dists(r) -> list[float]:
-        return [float(x) for x in r["distances_m"].split(",") if x.strip()]
+        return sorted(distance_set(r["distances_m"]))
 
     covered: dict[tuple[str, str, str], set[float]] = defaultdict(set)
     for r in table.values():

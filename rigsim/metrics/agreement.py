@@ -73,7 +73,7 @@ __all__ = ["RegionDeviation", "MetricDeviation", "CLEAR_WATERS", "MIN_CONTRAST",
            "MIN_MODERATED", "verdict", "noise_multiplier", "relative_se", "HEAVY_TAIL", "heavy_tailed", "case_key",
            "target_tails", "mean_image", "pooled_metric", "BEYOND_VISIBILITY", "chart_beyond_visibility",
            "contrast_below_visibility", "judged", "pooled_patches", "PUBLISHED_COLUMNS", "read_published",
-           "restamp_published"]
+           "restamp_published", "distance_set"]
 
 #: Waters in which the fast engine should agree within 3 % (Jerlov's oceanic types I–III and the
 #: original write-up's clear waters); elsewhere 5 %.
@@ -653,7 +653,7 @@ def _distances_text(v) -> str:
     return f"{float(v):g}" if isinstance(v, (int, float, np.floating)) else str(v)
 
 
-def _distance_set(text: str) -> set[float]:
+def distance_set(text: str) -> set[float]:
     """The distances (m) of a ``distances_m`` entry ("0.5, 1, 3")."""
     try:
         return {float(x) for x in str(text).split(",") if x.strip()}
@@ -815,10 +815,10 @@ def write_published(rows: list[dict], path, *, settings: str, engine: str = "", 
         dist = ", ".join(f"{d:g}" for d in sorted({c[2] for c in cases}))
         covered = {c[2] for c in cases}
         fresh = covered | {d for k, r in old.items() if k[:3] == (light, water, rig) and current is not None
-                           and current(r) for d in _distance_set(k[3])}
+                           and current(r) for d in distance_set(k[3])}
         for key in [k for k in old if k[:3] == (light, water, rig) and (
-                _distance_set(k[3]) <= covered or
-                (current is not None and not current(old[k]) and _distance_set(k[3]) <= fresh))]:
+                distance_set(k[3]) <= covered or
+                (current is not None and not current(old[k]) and distance_set(k[3]) <= fresh))]:
             del old[key]  # superseded: its distances are all in the new row (or, an earlier engine's, re-made)
             if cells_dir is not None:
                 (Path(cells_dir) / cells_file_name(*key)).unlink(missing_ok=True)
