@@ -197,6 +197,7 @@ CHECK_ONLY_COMMITS: dict[str, str] = {
     "96256fd": "the renderer's equiangular continuation share 0.05 (the references of later runs, not the fast engine)",
     "8b7da01": "the published table drops an earlier engine's row once this engine's rows cover its distances (the "
                "table's writer, not the engine)",
+    "bbbf2d3": "rigsim.metrics.agreement's distance parser made public (a rename)",
 }
 
 
