@@ -256,7 +256,7 @@ def print_status(path: Path = PUBLISHED) -> int:
         print(f"    of them judged before the visibility rule (every chart cell judged, also where the chart cannot be "
               f"seen): {len(before_rule)} rows")
     print(f"  earlier engines (blank: before the column, 2026-12-06): {len(old)} rows, {n(old, 'cells')} cells, "
-          f"{n(old, 'beyond')} beyond; to make again:")
+          f"{n(old, 'beyond')} beyond; to make again (--remake does, a distance per run):")
     groups: dict[tuple[str, str], list[str]] = defaultdict(list)
     from rigsim.metrics.agreement import distance_set
 
