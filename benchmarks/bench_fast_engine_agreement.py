@@ -339,7 +339,7 @@ def remake(out: Path, *, hours: float | None, dry_run: bool, waters: set | None,
     uncommitted edits (its rows could never count as this engine's)."""
     import subprocess
 
-    from rigsim.metrics.agreement import read_published
+    from rigsim.metrics.agreement import distance_set, read_published
 
     engine = _engine_id()
     if not dry_run and (not engine or engine.endswith("-dirty")):
@@ -393,7 +393,7 @@ def remake(out: Path, *, hours: float | None, dry_run: bool, waters: set | None,
                 rc = p.wait()
                 child.clear()
             row = next((r for r in read_published(PUBLISHED).values()
-                        if (r["lighting"], r["rig"], r["water"]) == it[:3] and r["distances_m"] == f"{it[3]:g}"
+                        if (r["lighting"], r["rig"], r["water"]) == it[:3] and distance_set(r["distances_m"]) == {it[3]}
                         and _engine_is_current(r.get("engine") or "")), None)
             said = (f"worst {100 * float(row['worst_deviation']):+.1f} ± {100 * float(row['worst_se']):.1f} % "
                     f"({row['worst_where']}), {row['beyond']} of {row['cells']} beyond" if rc == 0 and row else
