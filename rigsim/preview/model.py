@@ -114,7 +114,7 @@ from rigsim.preview.backscatter import (
 )
 from rigsim.preview.forward import SmallAngle
 from rigsim.preview.geometry import SceneSurfaces, cast_rays, occluded, scene_surfaces
-from rigsim.preview.multiple import MultipleScattering, _cosine_about
+from rigsim.preview.multiple import NOISE_TARGET, MultipleScattering, _cosine_about
 from rigsim.preview.tiles import default_threads, no_hugepage_advice, row_tiles, run, thread_map
 from rigsim.scene.daylight_field import SceneDaylight, height_factor, path_radiance, scene_daylight
 from rigsim.scene.particles import scene_particles
@@ -258,7 +258,7 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
                    shadows: bool | str = "auto", forward_scatter: bool = True, forward_cutoff_deg: float | None = None,
                    sub_bands: int = 3, pixel_samples: int = 1, edge_samples: int = 4,
                    backscatter_grid: int | None = 32, backscatter_nodes: int = 64, multiple: bool | str = "auto",
-                   photons: int | None = None,
+                   photons: int | None = None, noise_target: float | None = NOISE_TARGET,
                    ms_grid: int | None = None, ms_truncate_deg: float | None = None, spp: int | None = None,
                    seed: int | None = None,
                    max_depth: int | None = None, progress: ProgressCallback | None = None,
@@ -293,6 +293,14 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
         ``b (1 − F(ψ_c))`` at 550 nm is at least :data:`MS_AUTO_MIN_B_WIDE_PER_M`), photons per light
         group (default
         :func:`~rigsim.preview.multiple.default_photons`), its grid and δ-truncation angle.
+    noise_target
+        With the default photons: where the multiply scattered light's own noise (:func:`class_b_noise`, from the
+        photons' batches) is above this fraction of the image's light, more photons are traced, of an independent
+        stream of the same seed, up to :data:`~rigsim.preview.multiple.MAX_PHOTON_FACTOR` times as many
+        (:func:`~rigsim.preview.multiple.photon_factor`; default
+        :data:`~rigsim.preview.multiple.NOISE_TARGET`), and the group's image is made again with them all.  None,
+        or ``photons`` given: the photons as given.  The image's ``meta["preview"]["multiple"]`` says the noise
+        before (``noise``) and after (``noise_after``) and the photons traced.
     sub_bands
         Gauss–Legendre points per band for the direct component (1: band centres).
     pixel_samples, edge_samples
@@ -433,11 +441,12 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
                 from rigsim.preview.multiple import DEFAULT_GRID, default_photons, trace_multiple
 
                 kap = water.c - water.b * water.F if forward else water.c
-                ms = trace_multiple(scene, surf, lights, wl, c=water.c, b=water.b, kappa_cam=kap, tables=water.components,
-                                    weights=water.components.weights_at(wl), width=width, height=height,
-                                    cutoff_rad=cutoff, photons=photons or default_photons(width, height), grid=ms_grid or DEFAULT_GRID,
-                                    truncate_rad=None if ms_truncate_deg is None else np.radians(ms_truncate_deg),
-                                    seed=0 if seed is None else int(seed), bandwidth_nm=bw)
+                ms_args = dict(scene=scene, surf=surf, lights=lights, wavelength_nm=wl, c=water.c, b=water.b,
+                               kappa_cam=kap, tables=water.components, weights=water.components.weights_at(wl),
+                               width=width, height=height, cutoff_rad=cutoff, grid=ms_grid or DEFAULT_GRID,
+                               truncate_rad=None if ms_truncate_deg is None else np.radians(ms_truncate_deg),
+                               seed=0 if seed is None else int(seed), bandwidth_nm=bw)
+                ms = trace_multiple(**ms_args, photons=photons or default_photons(width, height))
                 ms_info[gname] = {"photons": ms.photons, "seconds": round(ms.seconds, 3),
                                   "relative_noise": [float(x) for x in ms.relative_noise]}
                 ms_by_group[gname] = ms
@@ -458,14 +467,33 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
                                              backscatter_grid, backscatter_nodes, veil_shadows, pmap)
                     if reuse is not None:
                         reuse[key] = (scene, grid)
-            group = _Group(view, surf, water, lamps, rho_c, forward, shadows, day, grid, ms,
-                           want=set(layers))
+
+            def image_of(ms):
+                group = _Group(view, surf, water, lamps, rho_c, forward, shadows, day, grid, ms, want=set(layers))
+                group.shade(pmap)
+                tick(0.3 + 0.3 * gi, f"{gname}: direct and backscatter")
+                if forward:
+                    group.add_forward(water.small_angle, pitch, pmap)
+                tick(0.5 + 0.3 * gi, f"{gname}: forward")
+                return group
+
+            group = image_of(ms)
+            if gname in ms_info and photons is None and noise_target is not None and ms.n_batches >= 2:
+                # the photons' noise against the image's light: more photons where it is above the target
+                from rigsim.preview.multiple import photon_factor, trace_multiple
+
+                noise = class_b_noise(group, ms, wl)
+                f = photon_factor(noise, noise_target)
+                ms_info[gname]["noise"] = round(noise, 5)
+                if f > 1:
+                    more = trace_multiple(**ms_args, photons=(f - 1) * ms.photons, stream=1)
+                    ms = ms.merged(more)
+                    ms_by_group[gname] = ms
+                    group = image_of(ms)
+                    ms_info[gname].update(photons=ms.photons, seconds=round(ms.seconds, 3),
+                                          relative_noise=[float(x) for x in ms.relative_noise],
+                                          noise_after=round(class_b_noise(group, ms, wl), 5))
             groups_done[gname] = group
-            group.shade(pmap)
-            tick(0.3 + 0.3 * gi, f"{gname}: direct and backscatter")
-            if forward:
-                group.add_forward(water.small_angle, pitch, pmap)
-            tick(0.5 + 0.3 * gi, f"{gname}: forward")
             for k, a in group.layers().items():
                 results[(gname, k)] = a
     zeros = np.zeros(shape, np.float32)
@@ -582,6 +610,62 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
     tick(1.0, "done")
     return SpectralImage(radiance=radiance, wavelength_nm=wl, bandwidth_nm=bw, layers=out_layers, meta=meta,
                          scene=scene, render=RenderInfo("preview"))
+
+
+#: Pixels of the image (about) at which :func:`class_b_noise` measures the photons' noise.
+NOISE_PIXELS = 4096
+
+
+def class_b_noise(group: "_Group", ms: MultipleScattering, wavelength_nm) -> float:
+    """The multiply scattered light's own photon noise in a light group's image: at about :data:`NOISE_PIXELS`
+    pixels spread over the image, the standard error of its class-B light (the veil up to what the pixel sees,
+    and on a target ``ρ/π E`` seen through ``e^{−κ s}``, a ray length ``s``) over the independent batches of
+    ``ms``'s photons, divided by the group's image there (``full``), averaged over each colour group's bands
+    (:data:`rigsim.spectrum.COLOUR_GROUPS_NM`, of the bands ``wavelength_nm``); the 90th percentile over the pixels, in the worst colour group.
+    (The light on a target is taken through the camera leg's attenuation alone, not the forward blur: this
+    measures the noise to choose the photons by, it is not part of the image.)  NaN where nothing can be said
+    (fewer than two batches, no light)."""
+    from rigsim.spectrum import colour_groups
+
+    v = group.view
+    nb = ms.n_batches
+    if nb < 2 or group.full is None:
+        return float("nan")
+    H, W = v.height, v.width
+    step = max(1, int(np.sqrt(H * W / NOISE_PIXELS)))
+    r0 = step // 2
+    rows, cols = np.arange(r0, H, step), np.arange(r0, W, step)
+    R, C = np.meshgrid(rows, cols, indexing="ij")
+    rng_m = np.asarray(v.range_m, float)[R, C]
+    batches = [ms.batch(k) for k in range(nb)]
+    x = np.stack([b.veil_at(C + 0.5, R + 0.5, rng_m) + b.veil_at(C + 0.5, R + 0.5, rng_m, surfaces=True)
+                  for b in batches])  # (nb, nr, nc, B)
+    w = group.water
+    kappa = (w.c - w.b * w.F) if group.forward else w.c
+    for (y0, _), h in zip(v.tiles, v.hits):
+        if h is None or not len(h):
+            continue
+        py, px = np.divmod(h.idx, W)
+        py = py + y0
+        m = ((py - r0) % step == 0) & ((px - r0) % step == 0)
+        if not np.any(m):
+            continue
+        hs = h.subset(m)
+        wt = np.ones(len(hs)) if hs.w is None else np.asarray(hs.w, float)
+        seen = (group.rho_c[hs.oid] / np.pi) * np.exp(-np.outer(np.asarray(hs.ts, float), kappa)) * wt[:, None]
+        ir, ic = (py[m] - r0) // step, (px[m] - r0) // step
+        for k, b in enumerate(batches):
+            np.add.at(x[k], (ir, ic), seen * b.irradiance_at(group.surf, hs.oid, hs.p, hs.nrm))
+    full = np.asarray(group.full, float)[R, C]
+    worst = float("nan")
+    for idx in colour_groups(wavelength_nm).values():
+        se = x[..., idx].mean(axis=-1).std(axis=0, ddof=1) / np.sqrt(nb)
+        tot = full[..., idx].mean(axis=-1)
+        ok = tot > 0
+        if np.any(ok):
+            q = float(np.percentile(se[ok] / tot[ok], 90))
+            worst = q if not np.isfinite(worst) else max(worst, q)
+    return worst
 
 
 def render_photon_batches(scene: Scene, traced: Mapping[str, MultipleScattering], *, traced_size: tuple[int, int],

@@ -211,7 +211,8 @@ from rigsim.scene.types import Scene
 from rigsim.spectrum import band_average, band_edges
 from rigsim.water.particles import lambert_sphere_phase
 
-__all__ = ["MultipleScattering", "trace_multiple", "default_photons", "DEFAULT_PHOTONS", "DEFAULT_GRID"]
+__all__ = ["MultipleScattering", "trace_multiple", "default_photons", "photon_factor", "DEFAULT_PHOTONS", "DEFAULT_GRID",
+           "NOISE_TARGET", "MAX_PHOTON_FACTOR"]
 
 #: Photons per light group (all bands at once) of an image of 6 250 pixels or more (96×64 and up).
 DEFAULT_PHOTONS = 100_000
@@ -224,6 +225,33 @@ def default_photons(width: int, height: int) -> int:
     (the tracer's time does not depend on the image size; a thumbnail of a few hundred pixels
     does not pay two seconds for it, a check image of 96×64 and a photograph get the full count)."""
     return int(np.clip(16 * int(width) * int(height), MIN_PHOTONS, DEFAULT_PHOTONS))
+#: The class-B light's own photon noise the fast engine keeps below: the 90th percentile over the image's pixels
+#: (:func:`rigsim.preview.model.class_b_noise`) of its standard error over the image's light, in the worst colour
+#: group — at most the agreement tolerance with Monte Carlo (5 %, :mod:`rigsim.metrics.agreement`).  Where the default
+#: photons leave it above this, more are traced (up to :data:`MAX_PHOTON_FACTOR` times as many, :func:`photon_factor`).
+#: Measured 2026-12-08 with the default photons (the demo's 96 cases at 640 x 427, ``studies/demo.toml``, seed 1): clear
+#: water 0.3-1.2 % with the strobes beside the port, 1.3-2.8 % edge-lit; coastal water with marine snow 0.6-1.0 % and
+#: 2.0-6.3 %; Jerlov 3C 1.0-1.5 % and 3.0-6.0 % (a ColorChecker at 3-6 m); coastal-regions none (no class B).  Jerlov 7C,
+#: edge-lit, a chart at 0.5 and 1 m (96 x 64): 5.2 and 5.1 %, and with four times the photons 3.7 and 2.6 %.  On a
+#: patch of 9-12 pixels the spread between seeds is about half the pixels' (7C edge-lit at 1 m: median 2.4 %, 90th
+#: percentile 4.3 % of the 72 patch cells; 6 seeds): in the agreement table's worst cells there (7C edge-lit 0.5 and
+#: 1 m, dark patches in blue) most of the difference's noise was this.  A target of 3 % would trace 2-4 times the
+#: photons in 13 of the demo's 48 turbid edge-lit cases (about +60 s of the demo on the slow 2-core machine, whose
+#: budget is 10 min); 5 % does in 4 (about +10 s).
+NOISE_TARGET = 0.05
+#: Most photons the noise target may ask for, in multiples of the image's default (:func:`default_photons`): the
+#: tracer's time grows with them (2-3 s per 100 000 photons in turbid water on 2 cores).
+MAX_PHOTON_FACTOR = 4
+
+
+def photon_factor(noise: float, target: float = NOISE_TARGET, cap: int = MAX_PHOTON_FACTOR) -> int:
+    """How many times the photons already traced bring a noise of ``noise`` to ``target`` (the noise falls as
+    1/√photons), at least 1 and at most ``cap``; 1 where the noise is unknown (NaN: no light of class B)."""
+    if not np.isfinite(noise) or noise <= target or target <= 0:
+        return 1
+    return int(min(max(1, cap), np.ceil((noise / target) ** 2)))
+
+
 #: Low-resolution grid along the longer image side (the class-B light is smooth across the image;
 #: 48 cells gave nine times the cells' noise for no detail the 96×64 comparisons could see).
 DEFAULT_GRID = 16
@@ -401,6 +429,40 @@ class MultipleScattering:
         return dataclasses.replace(self, veil_cum=v, veil_surf_cum=vs, irradiance=irr, fluence=flu,
                                    relative_noise=(float("nan"), float("nan")),
                                    photons=self.photons // self.n_batches, batches=None)
+
+    def merged(self, other: "MultipleScattering") -> "MultipleScattering":
+        """This light and ``other`` (the same scene, image size and settings, photons of an independent
+        stream: :func:`trace_multiple`'s ``stream``) as one estimate: each array the mean of the two weighted
+        by their photons, batch ``k`` of one with batch ``k`` of the other (so ``n_batches`` and what
+        :func:`rigsim.preview.model.render_photon_batches` measures stay as for one trace)."""
+        if not np.allclose(self.range_edges_m, other.range_edges_m) or self.veil_cum.shape != other.veil_cum.shape \
+                or self.irradiance.shape != other.irradiance.shape or self.n_batches != other.n_batches:
+            raise ValueError("merged: the two traces are not of the same scene, size and settings")
+        n1, n2 = float(self.photons), float(other.photons)
+        w1, w2 = n1 / (n1 + n2), n2 / (n1 + n2)
+        mix = [w1 * np.asarray(a, np.float64) + w2 * np.asarray(b, np.float64)
+               for a, b in ((self.veil_cum, other.veil_cum), (self.veil_surf_cum, other.veil_surf_cum),
+                            (self.irradiance, other.irradiance), (self.fluence, other.fluence))]
+        batches = None
+        if self.batches is not None:
+            batches = tuple((w1 * a.astype(np.float64) + w2 * b.astype(np.float64)).astype(np.float32)
+                            for a, b in zip(self.batches, other.batches))
+
+        def rel_noise(bat, axes):  # as _result's: the spread of the batches' totals over their mean
+            if bat is None or bat.shape[0] < 2:
+                return float("nan")
+            tot = bat.reshape(bat.shape[0], -1).astype(np.float64).sum(axis=1) if axes is None else axes(bat)
+            mu = tot.mean()
+            return float(tot.std(ddof=1) / np.sqrt(len(tot)) / mu) if mu > 0 else 0.0
+
+        veil_tot = None if batches is None else (lambda v: v[:, :, :, -1, :].reshape(v.shape[0], -1).astype(np.float64)
+                                                 .sum(axis=1))
+        noise = ((rel_noise(batches[0] + batches[1], veil_tot), rel_noise(batches[2], None))
+                 if batches is not None else (float("nan"), float("nan")))
+        return dataclasses.replace(self, veil_cum=mix[0], veil_surf_cum=mix[1], irradiance=mix[2], fluence=mix[3],
+                                   relative_noise=noise, photons=self.photons + other.photons,
+                                   vertices=self.vertices + other.vertices, seconds=self.seconds + other.seconds,
+                                   batches=batches)
 
     def scaled(self, sx: float, sy: float) -> "MultipleScattering":
         """The same light for an image of the same view ``sx`` times as wide and ``sy`` times as tall in
@@ -784,7 +846,7 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
                    spectral_nodes: int | None = SPECTRAL_NODES,
                    truncate_rad: float | None = None,
                    track_points: int = TRACK_POINTS, bandwidth_nm=None, surface_nee: bool = True,
-                   cone_turns: bool | None = None) -> MultipleScattering:
+                   cone_turns: bool | None = None, stream: int = 0) -> MultipleScattering:
     """Class-B light of one group of lights (see module docstring).
 
     Parameters
@@ -812,6 +874,9 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
         ψ_c of the analytic model's forward scattering.
     photons, grid, seed, batches
         Photons in all, cells along the longer image side, seed, independent batches for the noise.
+    stream
+        Which independent stream of random numbers of ``seed`` (0: the seed's own; ``k`` ≥ 1: the photons
+        traced after it, :meth:`MultipleScattering.merged`, independent of stream 0 and of every other seed's).
     spectral_nodes
         Wavelengths the photons carry (:data:`SPECTRAL_NODES`; None or ≥ the bands: every band).
     truncate_rad
@@ -850,7 +915,9 @@ def trace_multiple(scene: Scene, surf: SceneSurfaces, lights, wavelength_nm: np.
     qss = classes == "qss"  # (a check) every path, with the quasi-single-scattering camera leg
     only_a = classes == "A"  # (a check of the analytic model) its own paths, estimated the same way
     t0 = time.perf_counter()
-    rng = np.random.default_rng(np.random.SeedSequence([int(seed), 0x6D55]))
+    if int(stream) < 0:
+        raise ValueError(f"stream must be >= 0, got {stream}")
+    rng = np.random.default_rng(np.random.SeedSequence([int(seed), 0x6D55] + ([int(stream)] if stream else [])))
     wl_bands = np.asarray(wavelength_nm, float)
     B_out = len(wl_bands)
     wavelength_nm, to_bands = _spectral_nodes(wl_bands, spectral_nodes)

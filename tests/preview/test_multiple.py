@@ -755,3 +755,70 @@ def test_class_b_flights_to_the_targets_keep_the_irradiance_and_calm_a_far_chart
         assert len(patches) == 24
         if water == "jerlov-II":
             assert ratio > 1.5, ratio
+
+
+def test_photon_factor_brings_the_noise_to_the_target_within_the_cap():
+    """:func:`photon_factor`: the noise falls as 1/√photons, so a noise ``k`` times the target needs ``k²`` times the
+    photons (rounded up), none more where it is at or below the target or unknown, never more than the cap."""
+    from rigsim.preview.multiple import photon_factor
+
+    assert photon_factor(0.010, 0.015) == 1
+    assert photon_factor(0.015, 0.015) == 1
+    assert photon_factor(0.020, 0.015) == 2  # (4/3)^2 = 1.78
+    assert photon_factor(0.0259, 0.015) == 3  # 2.98
+    assert photon_factor(0.05, 0.015, cap=4) == 4
+    assert photon_factor(0.05, 0.015, cap=16) == 12  # 11.1
+    assert photon_factor(float("nan"), 0.015) == 1
+
+
+def test_photons_of_another_stream_merge_into_one_estimate_of_the_same_light():
+    """:meth:`MultipleScattering.merged` of stream 0 (N photons) and stream 1 (3N) of one seed: stream 1 is other
+    photons (not stream 0's again), the merged arrays are the photon-weighted mean and its batches average to it,
+    and the merged light agrees with an independent trace of 4N photons (another seed): a Z test of the class-B
+    veil over the image and of the disk's class-B irradiance, each with both estimates' batch errors, |z| < 4."""
+    scene = _scene("jerlov-7C", "black-disk", 1.0)
+    wl, kw = _tracer_inputs(scene)
+    surf = scene_surfaces(scene)
+    lights = scene.lights
+    a = trace_multiple(scene, surf, lights, wl, photons=20_000, seed=5, **kw)
+    b = trace_multiple(scene, surf, lights, wl, photons=60_000, seed=5, stream=1, **kw)
+    c = trace_multiple(scene, surf, lights, wl, photons=80_000, seed=6, **kw)
+    same_seed = trace_multiple(scene, surf, lights, wl, photons=60_000, seed=5, **kw)
+    assert not np.allclose(same_seed.veil_cum, b.veil_cum)  # stream 1: other photons than stream 0's
+    m = a.merged(b)
+    assert m.photons == a.photons + b.photons and m.n_batches == 4
+    np.testing.assert_allclose(m.veil_cum, 0.25 * a.veil_cum + 0.75 * b.veil_cum, rtol=1e-12)
+    np.testing.assert_allclose(m.irradiance, 0.25 * a.irradiance + 0.75 * b.irradiance, rtol=1e-12)
+    np.testing.assert_allclose(np.mean(m.batches[2], axis=0), m.irradiance, rtol=1e-5, atol=1e-30)
+
+    def totals(ms):  # the veil over the image and the disk's irradiance, per batch
+        return (np.array([ms.batch(k).veil_cum[:, :, -1].sum() for k in range(ms.n_batches)]),
+                np.array([ms.batch(k).irradiance[0].sum() for k in range(ms.n_batches)]))
+
+    for x, y in zip(totals(m), totals(c)):
+        z = (x.mean() - y.mean()) / np.sqrt(x.var(ddof=1) / x.size + y.var(ddof=1) / y.size)
+        assert abs(z) < 4, (z, x.mean(), y.mean())
+
+
+def test_more_photons_where_the_class_b_noise_is_above_the_target():
+    """``render_preview``'s ``noise_target``: an edge-lit chart in Jerlov 9C at a small size (its default 24 576
+    photons leave the class-B light's noise several times a target of 1.5 %) gets more photons, up to the cap, and its
+    measured noise falls as 1/√photons (to 0.3-0.75 of it for four times the photons); with no target, or
+    a target the first photons meet, the image is bit for bit the one made with the default photons alone."""
+    from rigsim.preview.multiple import MAX_PHOTON_FACTOR, default_photons
+
+    rig = load_rig("rigs/twin-strobes-edge-lighting.toml")
+    scene = build_scene(rig, "jerlov-9C", "colorchecker", 1.0, size_m=0.5)
+    kw = dict(wavelengths_nm=WL, layers=("object_id",), seed=2, multiple=True, **SIZE)
+    adapted = render_preview(scene, noise_target=0.015, **kw)
+    info = adapted.meta["preview"]["multiple"]["strobe"]
+    n0 = (default_photons(**SIZE) // 4) * 4
+    assert info["noise"] > 2 * 0.015
+    assert info["photons"] == MAX_PHOTON_FACTOR * n0, info
+    assert 0.3 < info["noise_after"] / info["noise"] < 0.75, info
+    plain = render_preview(scene, noise_target=None, **kw)
+    met = render_preview(scene, noise_target=1.0, **kw)
+    assert plain.meta["preview"]["multiple"]["strobe"]["photons"] == n0
+    assert met.meta["preview"]["multiple"]["strobe"]["noise"] == info["noise"]
+    np.testing.assert_array_equal(plain.layers["flash"], met.layers["flash"])
+    assert not np.array_equal(plain.layers["flash"], adapted.layers["flash"])
