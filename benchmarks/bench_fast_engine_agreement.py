@@ -198,6 +198,7 @@ CHECK_ONLY_COMMITS: dict[str, str] = {
     "8b7da01": "the published table drops an earlier engine's row once this engine's rows cover its distances (the "
                "table's writer, not the engine)",
     "bbbf2d3": "rigsim.metrics.agreement's distance parser made public (a rename)",
+    "b5ceef4": "the fast engine's noise target in multiple.py's docstring (no code)",
 }
 
 
