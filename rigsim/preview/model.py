@@ -368,6 +368,9 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
     elif not isinstance(multiple, bool):
         raise ConfigError(f"multiple must be true, false or 'auto', got {multiple!r}", field="multiple",
                           allowed="true, false, auto")
+    if noise_target is not None and not (np.isfinite(float(noise_target)) and 0.0 < float(noise_target) <= 1.0):
+        raise ConfigError(f"noise target must be a fraction in (0, 1] of the image's light, got {noise_target}",
+                          field="noise_target", allowed="0 < fraction <= 1, or None")
     if forward_cutoff_deg is None:
         forward_cutoff_deg = MS_CUTOFF_DEG if multiple else 90.0
     if not 0.0 < float(forward_cutoff_deg) <= 90.0:

@@ -822,3 +822,8 @@ def test_more_photons_where_the_class_b_noise_is_above_the_target():
     assert met.meta["preview"]["multiple"]["strobe"]["noise"] == info["noise"]
     np.testing.assert_array_equal(plain.layers["flash"], met.layers["flash"])
     assert not np.array_equal(plain.layers["flash"], adapted.layers["flash"])
+    from rigsim.errors import ConfigError
+
+    for bad in (0.0, -0.05, float("nan"), 1.5):
+        with pytest.raises(ConfigError, match="noise target"):
+            render_preview(scene, noise_target=bad, **kw)
