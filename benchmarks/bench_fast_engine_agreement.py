@@ -199,6 +199,7 @@ CHECK_ONLY_COMMITS: dict[str, str] = {
                "table's writer, not the engine)",
     "bbbf2d3": "rigsim.metrics.agreement's distance parser made public (a rename)",
     "b5ceef4": "the fast engine's noise target in multiple.py's docstring (no code)",
+    "e4db511": "render_preview refuses a noise target outside (0, 1] (the images of every valid call unchanged)",
 }
 
 
