@@ -114,7 +114,7 @@ from rigsim.preview.backscatter import (
 )
 from rigsim.preview.forward import SmallAngle
 from rigsim.preview.geometry import SceneSurfaces, cast_rays, occluded, scene_surfaces
-from rigsim.preview.multiple import NOISE_TARGET, MultipleScattering, _cosine_about
+from rigsim.preview.multiple import NOISE_TARGET, MultipleScattering, _cosine_about, photon_factor
 from rigsim.preview.tiles import default_threads, no_hugepage_advice, row_tiles, run, thread_map
 from rigsim.scene.daylight_field import SceneDaylight, height_factor, path_radiance, scene_daylight
 from rigsim.scene.particles import scene_particles
@@ -481,10 +481,9 @@ def render_preview(scene: Scene, *, width: int = 320, height: int = 240,
                 return group
 
             group = image_of(ms)
-            if gname in ms_info and photons is None and noise_target is not None and ms.n_batches >= 2:
+            traced_here = gname in ms_info  # (not given by the caller: ``traced``)
+            if traced_here and photons is None and noise_target is not None and ms.n_batches >= 2:
                 # the photons' noise against the image's light: more photons where it is above the target
-                from rigsim.preview.multiple import photon_factor, trace_multiple
-
                 noise = class_b_noise(group, ms, wl)
                 f = photon_factor(noise, noise_target)
                 ms_info[gname]["noise"] = round(noise, 5)

@@ -453,16 +453,10 @@ class MultipleScattering:
             batches = tuple((w1 * a.astype(np.float64) + w2 * b.astype(np.float64)).astype(np.float32)
                             for a, b in zip(self.batches, other.batches))
 
-        def rel_noise(bat, axes):  # as _result's: the spread of the batches' totals over their mean
-            if bat is None or bat.shape[0] < 2:
-                return float("nan")
-            tot = bat.reshape(bat.shape[0], -1).astype(np.float64).sum(axis=1) if axes is None else axes(bat)
-            mu = tot.mean()
-            return float(tot.std(ddof=1) / np.sqrt(len(tot)) / mu) if mu > 0 else 0.0
+        def totals(a):  # each batch's sum over the image (and bands)
+            return a.reshape(a.shape[0], -1).astype(np.float64).sum(axis=1)
 
-        veil_tot = None if batches is None else (lambda v: v[:, :, :, -1, :].reshape(v.shape[0], -1).astype(np.float64)
-                                                 .sum(axis=1))
-        noise = ((rel_noise(batches[0] + batches[1], veil_tot), rel_noise(batches[2], None))
+        noise = ((_batch_noise(totals((batches[0] + batches[1])[:, :, :, -1])), _batch_noise(totals(batches[2])))
                  if batches is not None else (float("nan"), float("nan")))
         return dataclasses.replace(self, veil_cum=mix[0], veil_surf_cum=mix[1], irradiance=mix[2], fluence=mix[3],
                                    relative_noise=noise, photons=self.photons + other.photons,
@@ -1663,6 +1657,15 @@ def _cosine_about(n: np.ndarray, loc: np.ndarray) -> np.ndarray:
     return loc[:, 0:1] * t + loc[:, 1:2] * s + loc[:, 2:3] * n
 
 
+def _batch_noise(totals: np.ndarray) -> float:
+    """Standard error of the mean of independent batches' totals over that mean (NaN with fewer than two
+    batches, 0 where the mean is not positive): :attr:`MultipleScattering.relative_noise`."""
+    if len(totals) < 2:
+        return float("nan")
+    mu = totals.mean()
+    return float(totals.std(ddof=1) / np.sqrt(len(totals)) / mu) if mu > 0 else 0.0
+
+
 def _result(veil, veil_s, irr, flu, power, to_bands, edges, cols, rows, width, height, photons, n_vert,
             t0) -> MultipleScattering:
     """Batches (nb, L, …, nodes) per light and unit power → the image's bands, times each light's
@@ -1678,11 +1681,7 @@ def _result(veil, veil_s, irr, flu, power, to_bands, edges, cols, rows, width, h
     mean_i = irr.mean(axis=0)
 
     def rel_noise(a):
-        if nb < 2:
-            return float("nan")
-        tot = a.reshape(nb, -1).sum(axis=1)
-        mu = tot.mean()
-        return float(tot.std(ddof=1) / np.sqrt(nb) / mu) if mu > 0 else 0.0
+        return _batch_noise(a.reshape(nb, -1).sum(axis=1))
 
     def cumulative(m, axis=2):  # along the range bins (axis 2, or 3 with a batch axis), from 0
         return np.concatenate([np.zeros_like(np.take(m, [0], axis=axis)), np.cumsum(m, axis=axis)], axis=axis)
