@@ -200,6 +200,7 @@ CHECK_ONLY_COMMITS: dict[str, str] = {
     "bbbf2d3": "rigsim.metrics.agreement's distance parser made public (a rename)",
     "b5ceef4": "the fast engine's noise target in multiple.py's docstring (no code)",
     "e4db511": "render_preview refuses a noise target outside (0, 1] (the images of every valid call unchanged)",
+    "37ec992": "the tracer's batch-noise formula shared by a trace and a merge (same values; the images unchanged)",
 }
 
 
